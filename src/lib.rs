@@ -1,0 +1,26 @@
+//! isoremesh: isotropic surface remeshing after Botsch & Kobbelt (2004), with
+//! exact feature preservation, adaptive sizing, measured quality statistics,
+//! a CLI and an HTTP service.
+//!
+//! # Layout
+//!
+//! | module | owns |
+//! |---|---|
+//! | [`geometry`] | triangle area, normal, angles, shape quality |
+//! | [`trimesh`] | [`TriMesh`], the indexed triangle mesh exchanged between layers |
+//! | [`mesh`] | the half-edge [`mesh::Mesh`]: building with repair, split/collapse/flip with guards, compaction, validation |
+//! | [`io`] | bytes ⇄ [`TriMesh`] for OBJ, glTF/GLB, STL, PLY, OFF; format detection; split normals |
+//! | [`bvh`] | the obvhs-built tree over triangles and our closest-point query |
+//! | [`stats`] | quality statistics: edge lengths, valence, angles, distances |
+//!
+//! The geometry core above is pure and synchronous: no async runtime and no
+//! filesystem access. The `service` feature adds the HTTP layer on top.
+
+pub mod bvh;
+pub mod geometry;
+pub mod io;
+pub mod mesh;
+pub mod stats;
+pub mod trimesh;
+
+pub use trimesh::{Label, Material, TriMesh};

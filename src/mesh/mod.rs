@@ -1,0 +1,4 @@
+//! The half-edge mesh (placeholder while the core is written).
+
+mod build;
+pub use build::RepairReport;

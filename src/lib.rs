@@ -20,6 +20,7 @@ pub mod bvh;
 pub mod geometry;
 pub mod io;
 pub mod mesh;
+pub mod shapes;
 pub mod stats;
 pub mod trimesh;
 

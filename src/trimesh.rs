@@ -142,12 +142,18 @@ impl TriMesh {
             .enumerate()
             .find(|(_, t)| t.iter().any(|&v| v as usize >= n))
         {
-            return Err(format!("triangle {i} has an index out of range: {t:?} with {n} vertices"));
+            return Err(format!(
+                "triangle {i} has an index out of range: {t:?} with {n} vertices"
+            ));
         }
         if !self.face_labels.is_empty() && self.face_labels.len() != self.triangles.len() {
             return Err("face_labels length differs from the triangle count".into());
         }
-        if let Some(l) = self.face_labels.iter().find(|&&l| l as usize >= self.label_count()) {
+        if let Some(l) = self
+            .face_labels
+            .iter()
+            .find(|&&l| l as usize >= self.label_count())
+        {
             return Err(format!("face label {l} is out of range"));
         }
         if !self.normals.is_empty() && self.normals.len() != n {

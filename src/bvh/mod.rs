@@ -92,6 +92,17 @@ pub struct SurfaceIndex {
     depth: usize,
 }
 
+impl std::fmt::Debug for SurfaceIndex {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SurfaceIndex")
+            .field("triangles", &self.triangles.len())
+            .field("indexed", &self.slot_face.len())
+            .field("nodes", &self.bvh.nodes.len())
+            .field("depth", &self.depth)
+            .finish()
+    }
+}
+
 /// One entry of the traversal stack: a node and the lower bound (squared f32
 /// box distance) computed when it was pushed.
 #[derive(Clone, Copy, Default)]

@@ -12,15 +12,19 @@
 //! | [`io`] | bytes ⇄ [`TriMesh`] for OBJ, glTF/GLB, STL, PLY, OFF; format detection; split normals |
 //! | [`bvh`] | the obvhs-built tree over triangles and our closest-point query |
 //! | [`stats`] | quality statistics: edge lengths, valence, angles, distances |
+//! | [`curvature`] | per-vertex principal curvatures (Rusinkiewicz 2004), feature-aware, and feature-polyline curvature |
+//! | [`sizing`] | the adaptive sizing field: target edge lengths from a tolerance, clamped and gradation-limited |
 //!
 //! The geometry core above is pure and synchronous: no async runtime and no
 //! filesystem access. The `service` feature adds the HTTP layer on top.
 
 pub mod bvh;
+pub mod curvature;
 pub mod geometry;
 pub mod io;
 pub mod mesh;
 pub mod shapes;
+pub mod sizing;
 pub mod stats;
 pub mod trimesh;
 

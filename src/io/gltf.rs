@@ -377,21 +377,24 @@ impl<'a> Reader<'a> {
                 "index accessor {a} has component type {component:?} (unsigned byte, short or int required)"
             )));
         }
-        if count > self.max_elements {
-            return Err(IoError::TooLarge {
-                message: format!(
-                    "accessor {a} declares {count} elements, more than the limit of {}",
-                    self.max_elements
-                ),
-            });
-        }
         let size = component_size(component);
         let elem = (size * components) as u64;
-        // count <= max_elements <= u32::MAX * 3, so it fits in usize.
-        let n = count as usize;
         let first = out.len();
-        match acc.buffer_view {
-            None => out.resize(first + n * components, 0.0),
+        let n = match acc.buffer_view {
+            None => {
+                // Zero-filled: no data bounds the count, so the size limit does.
+                if count > self.max_elements {
+                    return Err(IoError::TooLarge {
+                        message: format!(
+                            "accessor {a} declares {count} elements, more than the limit of {}",
+                            self.max_elements
+                        ),
+                    });
+                }
+                let n = count as usize;
+                out.resize(first + n * components, 0.0);
+                n
+            }
             Some(v) => {
                 let v = v.value();
                 let offset = acc.byte_offset.map_or(0, |o| o.0);
@@ -418,6 +421,8 @@ impl<'a> Reader<'a> {
                         available: data.len() as u64,
                     });
                 }
+                // In bounds, so count <= data.len() and fits in usize.
+                let n = count as usize;
                 let layout = Layout {
                     data: &data[offset as usize..],
                     stride: stride as usize,
@@ -432,8 +437,9 @@ impl<'a> Reader<'a> {
                         out.push(layout.get(e, k));
                     }
                 }
+                n
             }
-        }
+        };
         if let Some(sparse) = &acc.sparse {
             self.apply_sparse(
                 a,

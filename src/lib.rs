@@ -20,9 +20,12 @@
 
 pub mod bvh;
 pub mod curvature;
+pub mod features;
 pub mod geometry;
 pub mod io;
 pub mod mesh;
+pub mod pipeline;
+pub mod remesh;
 pub mod shapes;
 pub mod sizing;
 pub mod stats;

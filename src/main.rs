@@ -1,5 +1,237 @@
-//! The `isoremesh` binary: a thin command-line shell over the library.
+//! The `isoremesh` binary: a thin shell over the library. It parses
+//! arguments, reads and writes files, shows progress, and prints every
+//! failure as one line naming the file and the problem.
 
-fn main() {
-    println!("isoremesh");
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use clap::{Args, Parser, Subcommand};
+use isoremesh::io::{Format, ReadOptions};
+use isoremesh::pipeline::{self, JobError};
+use isoremesh::remesh::{Observer, Progress, RemeshOptions, Sizing};
+use isoremesh::stats::{self, StatsOptions};
+
+#[derive(Parser)]
+#[command(name = "isoremesh", version, about = "Isotropic remeshing: CLI and HTTP service")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Print quality statistics of a mesh.
+    Stats(StatsArgs),
+    /// Remesh a file toward a target edge length.
+    Remesh(Box<RemeshArgs>),
+}
+
+#[derive(Args)]
+struct StatsArgs {
+    /// The mesh file (OBJ, glTF, GLB, STL, PLY, OFF).
+    input: PathBuf,
+    /// Target edge length L for the band and histogram (default: mean edge length).
+    #[arg(long)]
+    target_edge_length: Option<f64>,
+    /// Measure the distance to this reference mesh.
+    #[arg(long)]
+    reference: Option<PathBuf>,
+    /// Override the format detection of INPUT.
+    #[arg(long)]
+    format: Option<Format>,
+    /// Print the statistics as JSON and nothing else on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Args)]
+struct RemeshArgs {
+    /// The input mesh file.
+    input: PathBuf,
+    /// The output file; its extension chooses the format.
+    output: PathBuf,
+    /// Absolute target edge length.
+    #[arg(long, group = "target")]
+    target_edge_length: Option<f64>,
+    /// Target edge length as a fraction of the bounding-box diagonal.
+    #[arg(long, group = "target")]
+    target_edge_ratio: Option<f64>,
+    /// Approximate output face count.
+    #[arg(long, group = "target")]
+    target_faces: Option<u64>,
+    /// Iterations (default 10).
+    #[arg(long)]
+    iterations: Option<u32>,
+    /// Relaxation steps per iteration (default 1).
+    #[arg(long)]
+    relaxation_steps: Option<u32>,
+    /// Dihedral angle in degrees above which an edge is a sharp feature (default 45).
+    #[arg(long)]
+    feature_angle: Option<f64>,
+    /// Do not keep sharp creases and corners (boundaries are always kept).
+    #[arg(long)]
+    no_features: bool,
+    /// Adaptive sizing from an approximation tolerance.
+    #[arg(long)]
+    adaptive: bool,
+    /// Adaptive sizing: absolute tolerance (default 0.1 % of the diagonal).
+    #[arg(long, requires = "adaptive")]
+    tolerance: Option<f64>,
+    /// Adaptive sizing: smallest target length.
+    #[arg(long, requires = "adaptive")]
+    min_edge_length: Option<f64>,
+    /// Adaptive sizing: largest target length.
+    #[arg(long, requires = "adaptive")]
+    max_edge_length: Option<f64>,
+    /// Adaptive sizing: gradation g in h(v) <= h(u) + g |uv|.
+    #[arg(long, requires = "adaptive")]
+    gradation: Option<f64>,
+    /// Worker threads (default: all cores). The output does not depend on it.
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Write input and output statistics as JSON to this file.
+    #[arg(long)]
+    stats: Option<PathBuf>,
+    /// Override the format detection of INPUT.
+    #[arg(long)]
+    format: Option<Format>,
+}
+
+/// A failure, already phrased as the one line the user sees.
+struct Failure(String);
+
+fn fail(path: &Path, e: impl std::fmt::Display) -> Failure {
+    Failure(format!("{}: {e}", path.display()))
+}
+
+fn read_file(path: &Path) -> Result<Vec<u8>, Failure> {
+    std::fs::read(path).map_err(|e| fail(path, e))
+}
+
+fn load(path: &Path, format: Option<Format>) -> Result<pipeline::LoadedInput, Failure> {
+    let bytes = read_file(path)?;
+    let name = path.file_name().and_then(|n| n.to_str());
+    pipeline::load(&bytes, name, format, &ReadOptions::default()).map_err(|e| fail(path, e))
+}
+
+fn stats_command(a: StatsArgs) -> Result<(), Failure> {
+    let input = load(&a.input, a.format)?;
+    let mesh = input.mesh.to_trimesh();
+    let reference = match &a.reference {
+        Some(p) => Some(load(p, None)?.mesh.to_trimesh()),
+        None => None,
+    };
+    if let Some(l) = a.target_edge_length {
+        if !(l.is_finite() && l > 0.0) {
+            return Err(Failure(format!("--target-edge-length must be positive, got {l}")));
+        }
+    }
+    let s = stats::compute(
+        &mesh,
+        &StatsOptions {
+            target_edge_length: a.target_edge_length,
+            reference: reference.as_ref(),
+            repairs: Some(input.repairs),
+            ..Default::default()
+        },
+    );
+    if a.json {
+        let text = serde_json::to_string_pretty(&s).map_err(|e| Failure(e.to_string()))?;
+        println!("{text}");
+    } else {
+        println!("{} ({})", a.input.display(), input.format);
+        print!("{}", s.summary());
+    }
+    Ok(())
+}
+
+/// Shows a progress bar on a terminal; silent otherwise.
+struct Bar(Option<indicatif::ProgressBar>);
+
+impl Observer for Bar {
+    fn progress(&mut self, p: &Progress) {
+        if let Some(bar) = &self.0 {
+            bar.set_position((p.fraction * 1000.0) as u64);
+            bar.set_message(format!("iteration {}/{} {:?}", p.iteration, p.iterations, p.pass));
+        }
+    }
+}
+
+fn remesh_command(a: RemeshArgs) -> Result<(), Failure> {
+    let out_format = Format::from_extension(&a.output.to_string_lossy()).ok_or_else(|| {
+        fail(
+            &a.output,
+            "unknown output format: use .obj, .gltf, .glb, .stl, .ply or .off",
+        )
+    })?;
+    let mut o = RemeshOptions {
+        target_edge_length: a.target_edge_length,
+        target_edge_ratio: a.target_edge_ratio,
+        target_faces: a.target_faces,
+        preserve_features: !a.no_features,
+        threads: a.threads,
+        ..Default::default()
+    };
+    if let Some(n) = a.iterations {
+        o.iterations = n;
+    }
+    if let Some(n) = a.relaxation_steps {
+        o.relaxation_steps = n;
+    }
+    if let Some(d) = a.feature_angle {
+        o.feature_angle = d;
+    }
+    if a.adaptive {
+        o.sizing = Sizing::Adaptive;
+        o.tolerance = a.tolerance;
+        o.min_edge_length = a.min_edge_length;
+        o.max_edge_length = a.max_edge_length;
+        if let Some(g) = a.gradation {
+            o.gradation = g;
+        }
+    }
+    o.validate().map_err(|e| Failure(e.to_string()))?;
+    let input = load(&a.input, a.format)?;
+    let bar = std::io::stderr().is_terminal().then(|| {
+        let b = indicatif::ProgressBar::new(1000);
+        b.set_style(
+            indicatif::ProgressStyle::with_template("{bar:40} {percent:>3}% {msg}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    });
+    let mut observer = Bar(bar);
+    let result = pipeline::run(&input, &o, &mut observer).map_err(|e: JobError| fail(&a.input, e));
+    if let Some(b) = &observer.0 {
+        b.finish_and_clear();
+    }
+    let result = result?;
+    let bytes = pipeline::encode(&result.mesh, out_format).map_err(|e| fail(&a.output, e))?;
+    std::fs::write(&a.output, bytes).map_err(|e| fail(&a.output, e))?;
+    if let Some(path) = &a.stats {
+        let doc = serde_json::json!({
+            "input": result.stats.input,
+            "output": result.stats.output,
+            "report": result.report,
+        });
+        let text = serde_json::to_vec_pretty(&doc).map_err(|e| Failure(e.to_string()))?;
+        std::fs::write(path, text).map_err(|e| fail(path, e))?;
+    }
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Stats(a) => stats_command(a),
+        Command::Remesh(a) => remesh_command(*a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(Failure(msg)) => {
+            eprintln!("isoremesh: {msg}");
+            ExitCode::FAILURE
+        }
+    }
 }

@@ -39,6 +39,9 @@ pub struct CollapseResult {
     pub removed_edges: [EdgeId; 3],
     /// Removed faces (`INVALID` on a boundary side).
     pub removed_faces: [FaceId; 2],
+    /// The edges that `removed_edges[1]` and `removed_edges[2]` merged into
+    /// (`INVALID` on a boundary side); they carry the union of the flags.
+    pub kept_edges: [EdgeId; 2],
 }
 
 impl Mesh {
@@ -223,6 +226,7 @@ impl Mesh {
         let v1 = self.to_vertex(h);
         let mut removed_edges = [h.edge(), EdgeId::INVALID, EdgeId::INVALID];
         let mut removed_faces = [FaceId::INVALID; 2];
+        let mut kept_edges = [EdgeId::INVALID; 2];
 
         // Every half-edge arriving at v0 now arrives at v1.
         // Rotation reads only prev/twin, so retargeting while rotating is safe.
@@ -268,6 +272,7 @@ impl Mesh {
             self.delete_face(fh);
             removed_edges[1] = h2.edge();
             removed_faces[0] = fh;
+            kept_edges[0] = h1.edge();
             self.adjust_outgoing(vl);
         } else {
             // Boundary side: drop h from its loop.
@@ -304,6 +309,7 @@ impl Mesh {
             self.delete_face(fo);
             removed_edges[2] = o1.edge();
             removed_faces[1] = fo;
+            kept_edges[1] = o2.edge();
             self.adjust_outgoing(vr);
         } else {
             // Read the loop neighbours now: the other side may have relinked them.
@@ -339,6 +345,7 @@ impl Mesh {
             removed: v0,
             removed_edges,
             removed_faces,
+            kept_edges,
         }
     }
 

@@ -1,0 +1,135 @@
+//! The whole job as the CLI and the service run it, on bytes: detect the
+//! format, read, build with repair, remesh, measure input and output, and
+//! encode the result with split normals. Pure and synchronous, like the rest
+//! of the core; the callers own files, sockets and threads.
+
+use serde::{Deserialize, Serialize};
+
+use crate::bvh::SurfaceIndex;
+use crate::io::{self, Format, ReadOptions, WriteOptions};
+use crate::mesh::{BuildError, Mesh, RepairReport, EDGE_FEATURE};
+use crate::remesh::{self, Observer, RemeshError, RemeshOptions, RemeshReport};
+use crate::stats::{self, MeshStats, StatsOptions};
+use crate::trimesh::TriMesh;
+
+/// Area samples per side for the distance statistics of a job.
+pub const DISTANCE_SAMPLES: usize = 100_000;
+
+/// Any failure of a job, layered by where it happened.
+#[derive(Debug, thiserror::Error)]
+pub enum JobError {
+    /// Reading or writing the file failed.
+    #[error(transparent)]
+    Io(#[from] io::IoError),
+    /// The triangles cannot form a mesh.
+    #[error(transparent)]
+    Build(#[from] BuildError),
+    /// Remeshing failed or was cancelled.
+    #[error(transparent)]
+    Remesh(#[from] RemeshError),
+}
+
+/// A parsed and repaired input.
+#[derive(Clone, Debug)]
+pub struct LoadedInput {
+    /// The detected (or given) format.
+    pub format: Format,
+    /// The half-edge mesh after repair.
+    pub mesh: Mesh,
+    /// What was repaired (including ignored non-triangle primitives).
+    pub repairs: RepairReport,
+}
+
+/// Reads `bytes` (named `file_name` if known) and builds the repaired mesh.
+pub fn load(
+    bytes: &[u8],
+    file_name: Option<&str>,
+    format: Option<Format>,
+    read: &ReadOptions,
+) -> Result<LoadedInput, JobError> {
+    let format = Format::detect(file_name, bytes, format)?;
+    let imported = io::read(bytes, format, read)?;
+    let (mesh, mut repairs) = Mesh::from_trimesh(&imported.mesh)?;
+    repairs.ignored_primitives = imported.ignored_primitives;
+    Ok(LoadedInput {
+        format,
+        mesh,
+        repairs,
+    })
+}
+
+/// Input and output statistics of a job.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct JobStats {
+    /// The repaired input, measured against the job's target length.
+    pub input: MeshStats,
+    /// The output, with its distance to the input.
+    pub output: MeshStats,
+}
+
+/// The result of [`run`].
+#[derive(Clone, Debug)]
+pub struct JobOutput {
+    /// The remeshed surface, with per-vertex normals split along features.
+    pub mesh: TriMesh,
+    /// Input and output statistics.
+    pub stats: JobStats,
+    /// What the remesher did.
+    pub report: RemeshReport,
+}
+
+/// Remeshes a loaded input and measures both sides.
+pub fn run(
+    input: &LoadedInput,
+    options: &RemeshOptions,
+    observer: &mut impl Observer,
+) -> Result<JobOutput, JobError> {
+    let out = remesh::remesh(&input.mesh, options, observer)?;
+    let input_tm = input.mesh.to_trimesh();
+    let output_tm = out.mesh.to_trimesh();
+    let adaptive = options.sizing == remesh::Sizing::Adaptive;
+    let l = out.report.target_edge_length;
+    let index = SurfaceIndex::from_trimesh(&input_tm);
+    let input_stats = stats::compute(
+        &input_tm,
+        &StatsOptions {
+            target_edge_length: Some(l),
+            repairs: Some(input.repairs),
+            ..Default::default()
+        },
+    );
+    let output_stats = stats::compute(
+        &output_tm,
+        &StatsOptions {
+            target_edge_length: (!adaptive).then_some(l),
+            reference: Some(&input_tm),
+            reference_index: Some(&index),
+            samples_per_side: DISTANCE_SAMPLES,
+            vertex_target: adaptive.then_some(out.vertex_target.as_slice()),
+            ..Default::default()
+        },
+    );
+    let features: Vec<[u32; 2]> = out
+        .mesh
+        .edges()
+        .filter(|&e| out.mesh.edge_has_flag(e, EDGE_FEATURE))
+        .map(|e| {
+            let [a, b] = out.mesh.edge_vertices(e);
+            [a.0, b.0]
+        })
+        .collect();
+    let mesh = io::with_split_normals(&output_tm, options.feature_angle, &features);
+    Ok(JobOutput {
+        mesh,
+        stats: JobStats {
+            input: input_stats,
+            output: output_stats,
+        },
+        report: out.report,
+    })
+}
+
+/// Encodes a result mesh in `format`, with normals.
+pub fn encode(mesh: &TriMesh, format: Format) -> Result<Vec<u8>, JobError> {
+    Ok(io::write(mesh, format, &WriteOptions::default())?)
+}

@@ -1,0 +1,116 @@
+//! Pass 3: flip edges toward regular valence (6 inside, 4 on the boundary),
+//! minimising the sum of squared valence deviations of the four vertices
+//! involved (Botsch & Kobbelt 2004), and flip non-Delaunay edges whose flip
+//! does not worsen valence, as CGAL does to repair badly shaped triangles.
+//!
+//! Guards: never a feature or boundary edge; the two faces must be nearly
+//! coplanar, so a flip never changes the shape; both new faces must keep the
+//! orientation and must not be degenerate or much worse than before.
+
+use glam::DVec3;
+
+use super::state::State;
+use super::RemeshError;
+use crate::geometry::{triangle_angles, triangle_cross, triangle_quality};
+use crate::mesh::{EdgeId, Handle, VertexId};
+
+/// Largest dihedral angle between the two faces of a flippable edge (20°), as a cosine.
+const MAX_DIHEDRAL_COS: f64 = 0.939_692_620_785_908_4;
+/// A valence flip may not create a face worse than this unless the old pair was already worse.
+const MIN_QUALITY: f64 = 0.3;
+/// Sweeps over the edges per pass at most.
+const MAX_SWEEPS: usize = 4;
+
+/// Flips edges; returns the number of flips.
+pub(super) fn flip_edges(st: &mut State, cancelled: &dyn Fn() -> bool) -> Result<u64, RemeshError> {
+    let nv = st.mesh.vertex_capacity();
+    let mut valence = vec![0i32; nv];
+    let mut target = vec![6i32; nv];
+    for v in st.mesh.vertices() {
+        valence[v.idx()] = st.mesh.valence(v) as i32;
+        if st.mesh.is_boundary_vertex(v) {
+            target[v.idx()] = 4;
+        }
+    }
+    let mut count = 0u64;
+    for _ in 0..MAX_SWEEPS {
+        let mut flipped = 0u64;
+        for i in 0..st.mesh.edge_capacity() as u32 {
+            if i % 4096 == 0 && cancelled() {
+                return Err(RemeshError::Cancelled);
+            }
+            let e = EdgeId(i);
+            if st.mesh.is_edge_deleted(e) || st.line_of(e).is_some() || !st.mesh.can_flip(e) {
+                continue;
+            }
+            let m = &st.mesh;
+            let h = e.halfedge(0);
+            let o = h.twin();
+            let a = m.to_vertex(o);
+            let b = m.to_vertex(h);
+            let c = m.to_vertex(m.next(h));
+            let d = m.to_vertex(m.next(o));
+            let dev = |v: VertexId, delta: i32| {
+                let x = valence[v.idx()] + delta - target[v.idx()];
+                x * x
+            };
+            let before = dev(a, 0) + dev(b, 0) + dev(c, 0) + dev(d, 0);
+            let after = dev(a, -1) + dev(b, -1) + dev(c, 1) + dev(d, 1);
+            if after > before {
+                continue;
+            }
+            let p = |v: VertexId| m.position(v);
+            let (pa, pb, pc, pd) = (p(a), p(b), p(c), p(d));
+            let old = [[pa, pb, pc], [pb, pa, pd]];
+            let new = [[pc, pa, pd], [pd, pb, pc]];
+            let valence_gain = after < before;
+            if !valence_gain && !improves_delaunay(old) {
+                continue;
+            }
+            if !geometry_ok(old, new) {
+                continue;
+            }
+            st.mesh.flip_edge(e);
+            valence[a.idx()] -= 1;
+            valence[b.idx()] -= 1;
+            valence[c.idx()] += 1;
+            valence[d.idx()] += 1;
+            flipped += 1;
+        }
+        count += flipped;
+        if flipped == 0 {
+            break;
+        }
+    }
+    Ok(count)
+}
+
+/// Whether the edge shared by `old` violates the Delaunay condition: the
+/// angles opposite it sum to more than π.
+fn improves_delaunay(old: [[DVec3; 3]; 2]) -> bool {
+    let alpha = triangle_angles(old[0])[2];
+    let beta = triangle_angles(old[1])[2];
+    alpha + beta > std::f64::consts::PI + 1e-9
+}
+
+fn geometry_ok(old: [[DVec3; 3]; 2], new: [[DVec3; 3]; 2]) -> bool {
+    let n1 = triangle_cross(old[0]);
+    let n2 = triangle_cross(old[1]);
+    let (l1, l2) = (n1.length(), n2.length());
+    if l1 <= 0.0 || l2 <= 0.0 || n1.dot(n2) < MAX_DIHEDRAL_COS * l1 * l2 {
+        return false;
+    }
+    let avg = n1 / l1 + n2 / l2;
+    let m1 = triangle_cross(new[0]);
+    let m2 = triangle_cross(new[1]);
+    let (k1, k2) = (m1.length(), m2.length());
+    if k1 <= 0.0 || k2 <= 0.0 || m1.dot(avg) <= 0.0 || m2.dot(avg) <= 0.0 {
+        return false;
+    }
+    if m1.dot(m2) < MAX_DIHEDRAL_COS * k1 * k2 {
+        return false;
+    }
+    let q_old = triangle_quality(old[0]).min(triangle_quality(old[1]));
+    let q_new = triangle_quality(new[0]).min(triangle_quality(new[1]));
+    q_new >= q_old.min(MIN_QUALITY)
+}

@@ -1,0 +1,315 @@
+//! Incremental isotropic remeshing after Botsch & Kobbelt, "A remeshing
+//! approach to multiresolution modeling" (SGP 2004), with the guards and
+//! feature handling of Dunyach et al. 2013 and CGAL's implementation notes.
+//!
+//! [`remesh`] runs, for each iteration: split long edges, collapse short
+//! edges, flip toward valence 6 (4 on the boundary), tangential relaxation,
+//! and projection onto the input surface or its feature lines. Topology lives
+//! in [`crate::mesh`]; this module only decides *which* edges and vertices to
+//! change. One pass per file: [`split`], [`collapse`], [`flip`], [`relax`]
+//! (relaxation and projection share the guarded move in [`relax`]).
+//!
+//! Every pass is deterministic: topological passes walk handles in index
+//! order, and the parallel passes are pure per-vertex maps applied at once,
+//! so the output is byte-identical whatever the thread count.
+
+mod collapse;
+mod flip;
+mod options;
+mod relax;
+mod split;
+mod state;
+
+pub use options::{
+    RemeshOptions, Sizing, DEFAULT_GRADATION, DEFAULT_ITERATIONS, DEFAULT_MAX_OUTPUT_FACES,
+    DEFAULT_RELAXATION_STEPS,
+};
+
+use serde::{Deserialize, Serialize};
+use std::time::Instant;
+
+use crate::mesh::Mesh;
+use state::State;
+
+/// The passes of one iteration, reported through [`Observer::progress`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Pass {
+    /// Building the spatial index, features and sizing on the input.
+    Prepare,
+    /// Splitting long edges.
+    Split,
+    /// Collapsing short edges.
+    Collapse,
+    /// Flipping edges toward regular valence.
+    Flip,
+    /// Tangential relaxation.
+    Relax,
+    /// Projection onto the input.
+    Project,
+}
+
+impl Pass {
+    /// The pass's index within an iteration (Prepare counts as 0).
+    fn order(self) -> f64 {
+        match self {
+            Pass::Prepare | Pass::Split => 0.0,
+            Pass::Collapse => 1.0,
+            Pass::Flip => 2.0,
+            Pass::Relax => 3.0,
+            Pass::Project => 4.0,
+        }
+    }
+}
+
+/// Where a running remesh is.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Progress {
+    /// Current iteration, from 1 (0 while preparing).
+    pub iteration: u32,
+    /// Total iterations.
+    pub iterations: u32,
+    /// Current pass.
+    pub pass: Pass,
+    /// Overall fraction done, in [0, 1].
+    pub fraction: f64,
+}
+
+/// Receives progress and may cancel a running remesh. Checked between passes
+/// and every few thousand operations inside a pass, so cancellation takes
+/// effect within a fraction of a second.
+pub trait Observer {
+    /// Called at the start of every pass.
+    fn progress(&mut self, _progress: &Progress) {}
+    /// Return true to stop the remesh with [`RemeshError::Cancelled`].
+    fn is_cancelled(&self) -> bool {
+        false
+    }
+}
+
+/// An observer that ignores progress and never cancels.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct NoObserver;
+impl Observer for NoObserver {}
+
+/// Why a remesh did not produce a mesh.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RemeshError {
+    /// An option is out of range or contradicts another.
+    #[error("invalid option `{field}`: {message}")]
+    InvalidOption {
+        /// The offending field, by its public name.
+        field: &'static str,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// The input has no faces.
+    #[error("the input mesh has no faces")]
+    EmptyInput,
+    /// The target length would create more faces than allowed.
+    #[error("the target edge length {target_edge_length} would create about {estimated_faces} faces, more than the limit of {limit}")]
+    TooManyFaces {
+        /// The resolved target length.
+        target_edge_length: f64,
+        /// Estimated faces, area / (√3/4 · L²).
+        estimated_faces: u64,
+        /// The configured limit.
+        limit: u64,
+    },
+    /// The observer asked to stop.
+    #[error("remeshing was cancelled")]
+    Cancelled,
+    /// A bug: an invariant broke. Please report it with the input.
+    #[error("internal error (a bug): {0}")]
+    Internal(String),
+}
+
+/// Operation counts of one iteration.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct IterationReport {
+    /// Edges split.
+    pub splits: u64,
+    /// Edges collapsed.
+    pub collapses: u64,
+    /// Edges flipped.
+    pub flips: u64,
+    /// Vertex moves in relaxation that were halved at least once by the guard.
+    pub relax_moves_limited: u64,
+    /// Vertex moves in projection that were halved at least once by the guard.
+    pub project_moves_limited: u64,
+    /// Faces at the end of the iteration.
+    pub faces: u64,
+}
+
+/// Seconds spent in each pass, summed over iterations.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct PassTimes {
+    /// Building the index, features and sizing.
+    pub prepare: f64,
+    /// Splitting.
+    pub split: f64,
+    /// Collapsing.
+    pub collapse: f64,
+    /// Flipping.
+    pub flip: f64,
+    /// Relaxation.
+    pub relax: f64,
+    /// Projection.
+    pub project: f64,
+}
+
+/// What a remesh did.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct RemeshReport {
+    /// The resolved target edge length (the mean target under adaptive sizing).
+    pub target_edge_length: f64,
+    /// Smallest and largest target length (equal under uniform sizing).
+    pub target_range: [f64; 2],
+    /// Feature edges found on the input.
+    pub feature_edges: u64,
+    /// Corners found on the input.
+    pub corners: u64,
+    /// Feature lines found on the input.
+    pub feature_lines: u64,
+    /// Counts per iteration.
+    pub iterations: Vec<IterationReport>,
+    /// Time per pass.
+    pub seconds: PassTimes,
+    /// Total wall time in seconds.
+    pub total_seconds: f64,
+}
+
+/// The remeshed surface and its report.
+#[derive(Clone, Debug)]
+pub struct RemeshOutput {
+    /// The new mesh, compacted.
+    pub mesh: Mesh,
+    /// Per-vertex target edge length of the output (constant when uniform).
+    pub vertex_target: Vec<f64>,
+    /// What was done.
+    pub report: RemeshReport,
+}
+
+/// Remeshes `input` toward the target edge length of `options`.
+///
+/// The output is manifold, oriented like the input, has the input's Euler
+/// characteristic and boundary-loop count, and has no degenerate or inverted
+/// faces. Features (creases, corners, boundaries, label borders) are kept
+/// and resampled.
+pub fn remesh(
+    input: &Mesh,
+    options: &RemeshOptions,
+    observer: &mut impl Observer,
+) -> Result<RemeshOutput, RemeshError> {
+    options.validate()?;
+    if input.face_count() == 0 {
+        return Err(RemeshError::EmptyInput);
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(options.threads.unwrap_or(0))
+        .build()
+        .map_err(|e| RemeshError::Internal(format!("thread pool: {e}")))?;
+    run(input, options, observer, pool)
+}
+
+fn run(
+    input: &Mesh,
+    options: &RemeshOptions,
+    observer: &mut impl Observer,
+    pool: rayon::ThreadPool,
+) -> Result<RemeshOutput, RemeshError> {
+    let start = Instant::now();
+    let iterations = options.iterations;
+    let notify = |observer: &mut dyn ObserverDyn, iteration: u32, pass: Pass| {
+        let fraction = if iterations == 0 {
+            1.0
+        } else {
+            ((iteration.max(1) - 1) as f64 + pass.order() / 5.0) / iterations as f64
+        };
+        observer.progress_dyn(&Progress {
+            iteration,
+            iterations,
+            pass,
+            fraction: if pass == Pass::Prepare { 0.0 } else { fraction },
+        });
+        if observer.is_cancelled_dyn() {
+            Err(RemeshError::Cancelled)
+        } else {
+            Ok(())
+        }
+    };
+    notify(observer, 0, Pass::Prepare)?;
+    let mut st = State::new(input, options, pool)?;
+    let mut report = RemeshReport {
+        target_edge_length: st.mean_target(),
+        target_range: st.target_range(),
+        feature_edges: st.features.edges().len() as u64,
+        corners: st.features.corners().len() as u64,
+        feature_lines: st.features.lines().len() as u64,
+        ..Default::default()
+    };
+    report.seconds.prepare = start.elapsed().as_secs_f64();
+
+    for it in 1..=iterations {
+        let mut ir = IterationReport::default();
+        if options.split {
+            notify(observer, it, Pass::Split)?;
+            let t = Instant::now();
+            ir.splits = split::split_long_edges(&mut st, &|| observer.is_cancelled())?;
+            report.seconds.split += t.elapsed().as_secs_f64();
+        }
+        if options.collapse {
+            notify(observer, it, Pass::Collapse)?;
+            let t = Instant::now();
+            ir.collapses = collapse::collapse_short_edges(&mut st, &|| observer.is_cancelled())?;
+            report.seconds.collapse += t.elapsed().as_secs_f64();
+        }
+        if options.flip {
+            notify(observer, it, Pass::Flip)?;
+            let t = Instant::now();
+            ir.flips = flip::flip_edges(&mut st, &|| observer.is_cancelled())?;
+            report.seconds.flip += t.elapsed().as_secs_f64();
+        }
+        for _ in 0..options.relaxation_steps.max(1) {
+            if options.relax && options.relaxation_steps > 0 {
+                notify(observer, it, Pass::Relax)?;
+                let t = Instant::now();
+                ir.relax_moves_limited += relax::relax_tangentially(&mut st);
+                report.seconds.relax += t.elapsed().as_secs_f64();
+            }
+            if options.project {
+                notify(observer, it, Pass::Project)?;
+                let t = Instant::now();
+                ir.project_moves_limited += relax::project_to_input(&mut st);
+                report.seconds.project += t.elapsed().as_secs_f64();
+            }
+        }
+        ir.faces = st.mesh.face_count() as u64;
+        report.iterations.push(ir);
+        debug_assert!(st.mesh.validate().is_ok(), "{:?}", st.mesh.validate());
+    }
+    let (mesh, vertex_target) = st.finish();
+    mesh.validate()
+        .map_err(|e| RemeshError::Internal(e.to_string()))?;
+    report.total_seconds = start.elapsed().as_secs_f64();
+    Ok(RemeshOutput {
+        mesh,
+        vertex_target,
+        report,
+    })
+}
+
+/// Object-safe view of [`Observer`] for the progress closure.
+trait ObserverDyn {
+    fn progress_dyn(&mut self, p: &Progress);
+    fn is_cancelled_dyn(&self) -> bool;
+}
+
+impl<O: Observer> ObserverDyn for O {
+    fn progress_dyn(&mut self, p: &Progress) {
+        self.progress(p)
+    }
+    fn is_cancelled_dyn(&self) -> bool {
+        self.is_cancelled()
+    }
+}

@@ -1,0 +1,253 @@
+//! Remeshing options: every field documents its meaning and default, and
+//! [`RemeshOptions::validate`] checks them once, at the boundary. The CLI
+//! flags and the HTTP parameters convert into this type, never the reverse.
+
+use serde::{Deserialize, Serialize};
+
+use super::RemeshError;
+use crate::features::{DEFAULT_CORNER_ANGLE_DEG, DEFAULT_FEATURE_ANGLE_DEG};
+
+/// Default number of iterations (Botsch & Kobbelt use 5–10; 10 matches the bench).
+pub const DEFAULT_ITERATIONS: u32 = 10;
+/// Default number of relaxation + projection steps per iteration.
+pub const DEFAULT_RELAXATION_STEPS: u32 = 1;
+/// Default gradation for adaptive sizing: h(v) ≤ h(u) + g·|uv|.
+pub const DEFAULT_GRADATION: f64 = crate::sizing::DEFAULT_GRADATION;
+/// Default cap on the estimated output face count, a guard against a tiny
+/// target length exhausting memory.
+pub const DEFAULT_MAX_OUTPUT_FACES: u64 = 50_000_000;
+
+/// How the target edge length varies over the surface.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Sizing {
+    /// One target length everywhere.
+    #[default]
+    Uniform,
+    /// Short edges where curvature is high, long where flat, bounded by a
+    /// distance tolerance (Dunyach et al. 2013) and graded.
+    Adaptive,
+}
+
+/// Options of [`super::remesh`]. Construct with `Default` and the `with_*`
+/// builders, or fill the public fields; [`RemeshOptions::validate`] runs
+/// before any work.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RemeshOptions {
+    /// Absolute target edge length L. At most one of the three target fields
+    /// may be set. When none is, L is the input's mean edge length: the mesh
+    /// keeps its resolution and becomes isotropic.
+    pub target_edge_length: Option<f64>,
+    /// Target edge length as a fraction of the input's bounding-box diagonal
+    /// (the bench uses 0.0075).
+    pub target_edge_ratio: Option<f64>,
+    /// Approximate number of output faces; L follows from the surface area A
+    /// as L = sqrt(A / (F · √3/4)).
+    pub target_faces: Option<u64>,
+    /// Outer iterations of split, collapse, flip, relax, project. Default 10.
+    pub iterations: u32,
+    /// Relaxation + projection steps per iteration. Default 1.
+    pub relaxation_steps: u32,
+    /// Run the split pass (edges longer than 4/3·L). Default true.
+    pub split: bool,
+    /// Run the collapse pass (edges shorter than 4/5·L). Default true.
+    pub collapse: bool,
+    /// Run the valence-improving flip pass. Default true.
+    pub flip: bool,
+    /// Run tangential relaxation. Default true.
+    pub relax: bool,
+    /// Project vertices back onto the input surface. Default true.
+    pub project: bool,
+    /// Keep sharp creases and corners (boundaries and material borders are
+    /// always kept). Default true.
+    pub preserve_features: bool,
+    /// Dihedral angle in degrees above which an edge is a sharp feature.
+    /// Default 45° (see [`crate::features::DEFAULT_FEATURE_ANGLE_DEG`]).
+    pub feature_angle: f64,
+    /// Turning angle in degrees above which a feature-line vertex is a corner.
+    pub corner_angle: f64,
+    /// Uniform or adaptive sizing. Default uniform.
+    pub sizing: Sizing,
+    /// Adaptive sizing: absolute approximation tolerance ε.
+    pub tolerance: Option<f64>,
+    /// Adaptive sizing: tolerance as a fraction of the bounding-box diagonal
+    /// (default 0.001 when neither tolerance is given).
+    pub tolerance_ratio: Option<f64>,
+    /// Adaptive sizing: smallest allowed target length.
+    pub min_edge_length: Option<f64>,
+    /// Adaptive sizing: largest allowed target length.
+    pub max_edge_length: Option<f64>,
+    /// Adaptive sizing: gradation g in h(v) ≤ h(u) + g·|uv|.
+    pub gradation: f64,
+    /// Worker threads for the parallel passes; `None` uses every core. The
+    /// output does not depend on it.
+    pub threads: Option<usize>,
+    /// Refuse inputs whose estimated output exceeds this many faces.
+    pub max_output_faces: u64,
+}
+
+impl Default for RemeshOptions {
+    fn default() -> Self {
+        Self {
+            target_edge_length: None,
+            target_edge_ratio: None,
+            target_faces: None,
+            iterations: DEFAULT_ITERATIONS,
+            relaxation_steps: DEFAULT_RELAXATION_STEPS,
+            split: true,
+            collapse: true,
+            flip: true,
+            relax: true,
+            project: true,
+            preserve_features: true,
+            feature_angle: DEFAULT_FEATURE_ANGLE_DEG,
+            corner_angle: DEFAULT_CORNER_ANGLE_DEG,
+            sizing: Sizing::Uniform,
+            tolerance: None,
+            tolerance_ratio: None,
+            min_edge_length: None,
+            max_edge_length: None,
+            gradation: DEFAULT_GRADATION,
+            threads: None,
+            max_output_faces: DEFAULT_MAX_OUTPUT_FACES,
+        }
+    }
+}
+
+fn invalid(field: &'static str, message: impl Into<String>) -> RemeshError {
+    RemeshError::InvalidOption {
+        field,
+        message: message.into(),
+    }
+}
+
+fn positive(field: &'static str, v: Option<f64>) -> Result<(), RemeshError> {
+    match v {
+        Some(x) if !(x.is_finite() && x > 0.0) => Err(invalid(
+            field,
+            format!("must be a positive finite number, got {x}"),
+        )),
+        _ => Ok(()),
+    }
+}
+
+impl RemeshOptions {
+    /// Sets an absolute target edge length.
+    pub fn with_target_edge_length(mut self, l: f64) -> Self {
+        self.target_edge_length = Some(l);
+        self
+    }
+    /// Sets the target edge length relative to the bounding-box diagonal.
+    pub fn with_target_edge_ratio(mut self, r: f64) -> Self {
+        self.target_edge_ratio = Some(r);
+        self
+    }
+    /// Sets the approximate output face count.
+    pub fn with_target_faces(mut self, f: u64) -> Self {
+        self.target_faces = Some(f);
+        self
+    }
+    /// Sets the iteration count.
+    pub fn with_iterations(mut self, n: u32) -> Self {
+        self.iterations = n;
+        self
+    }
+    /// Sets the worker thread count.
+    pub fn with_threads(mut self, n: usize) -> Self {
+        self.threads = Some(n);
+        self
+    }
+    /// Sets the feature angle in degrees.
+    pub fn with_feature_angle(mut self, deg: f64) -> Self {
+        self.feature_angle = deg;
+        self
+    }
+    /// Switches sharp-feature preservation on or off.
+    pub fn with_preserve_features(mut self, on: bool) -> Self {
+        self.preserve_features = on;
+        self
+    }
+
+    /// Checks every field; the first problem names its field.
+    pub fn validate(&self) -> Result<(), RemeshError> {
+        let targets = [
+            self.target_edge_length.is_some(),
+            self.target_edge_ratio.is_some(),
+            self.target_faces.is_some(),
+        ];
+        if targets.iter().filter(|&&t| t).count() > 1 {
+            return Err(invalid(
+                "target_edge_length",
+                "give at most one of target_edge_length, target_edge_ratio and target_faces",
+            ));
+        }
+        positive("target_edge_length", self.target_edge_length)?;
+        positive("target_edge_ratio", self.target_edge_ratio)?;
+        if self.target_faces == Some(0) {
+            return Err(invalid("target_faces", "must be at least 1"));
+        }
+        if self.iterations > 1000 {
+            return Err(invalid("iterations", "must be at most 1000"));
+        }
+        if self.relaxation_steps > 100 {
+            return Err(invalid("relaxation_steps", "must be at most 100"));
+        }
+        if !(self.feature_angle.is_finite() && (0.0..=180.0).contains(&self.feature_angle)) {
+            return Err(invalid(
+                "feature_angle",
+                "must be between 0 and 180 degrees",
+            ));
+        }
+        if !(self.corner_angle.is_finite() && (0.0..=180.0).contains(&self.corner_angle)) {
+            return Err(invalid("corner_angle", "must be between 0 and 180 degrees"));
+        }
+        positive("tolerance", self.tolerance)?;
+        positive("tolerance_ratio", self.tolerance_ratio)?;
+        positive("min_edge_length", self.min_edge_length)?;
+        positive("max_edge_length", self.max_edge_length)?;
+        if let (Some(a), Some(b)) = (self.min_edge_length, self.max_edge_length) {
+            if a > b {
+                return Err(invalid(
+                    "min_edge_length",
+                    "must not exceed max_edge_length",
+                ));
+            }
+        }
+        if self.tolerance.is_some() && self.tolerance_ratio.is_some() {
+            return Err(invalid(
+                "tolerance",
+                "give tolerance or tolerance_ratio, not both",
+            ));
+        }
+        if !(self.gradation.is_finite() && self.gradation > 0.0) {
+            return Err(invalid("gradation", "must be a positive finite number"));
+        }
+        if self.sizing == Sizing::Uniform
+            && (self.tolerance.is_some()
+                || self.tolerance_ratio.is_some()
+                || self.min_edge_length.is_some()
+                || self.max_edge_length.is_some())
+        {
+            return Err(invalid(
+                "sizing",
+                "tolerance, min_edge_length and max_edge_length need sizing = adaptive",
+            ));
+        }
+        if self.sizing == Sizing::Adaptive && targets.iter().any(|&t| t) {
+            return Err(invalid(
+                "sizing",
+                "adaptive sizing derives the length from the tolerance; drop the target_* option",
+            ));
+        }
+        if let Some(t) = self.threads {
+            if t == 0 || t > 1024 {
+                return Err(invalid("threads", "must be between 1 and 1024"));
+            }
+        }
+        if self.max_output_faces == 0 {
+            return Err(invalid("max_output_faces", "must be at least 1"));
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,294 @@
+//! The working state of a remesh: the mesh being changed, the reference
+//! (input surface index, feature set, sizing field) and the per-element data
+//! that follows the operators: each vertex's feature kind, its projection
+//! hints and target size, and each edge's feature line.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::{RemeshError, RemeshOptions, Sizing};
+use crate::bvh::SurfaceIndex;
+use crate::curvature;
+use crate::features::{detect_features, FeatureOptions, FeatureSet, VertexKind};
+use crate::mesh::{
+    CollapseResult, EdgeId, HalfedgeId, Handle, Mesh, SplitResult, VertexId, EDGE_FEATURE,
+};
+use crate::sizing::{SizingField, SizingOptions};
+use crate::trimesh::TriMesh;
+
+/// Vertex kind tag: not on a feature.
+pub(super) const SMOOTH: u32 = u32::MAX;
+/// Vertex kind tag: a corner, which never moves.
+pub(super) const CORNER: u32 = u32::MAX - 1;
+/// Edge line tag: not a feature edge.
+pub(super) const NO_LINE: u32 = u32::MAX;
+
+/// Upper split factor: edges longer than 4/3 of the target are split.
+pub(super) const SPLIT_FACTOR: f64 = 4.0 / 3.0;
+/// Lower collapse factor: edges shorter than 4/5 of the target are collapsed.
+pub(super) const COLLAPSE_FACTOR: f64 = 4.0 / 5.0;
+
+pub(super) struct State {
+    pub mesh: Mesh,
+    pub input: TriMesh,
+    pub index: SurfaceIndex,
+    pub features: FeatureSet,
+    pub sizing: Option<SizingField>,
+    /// Per vertex: [`SMOOTH`], [`CORNER`] or the feature line id.
+    pub kind: Vec<u32>,
+    /// Per vertex: the input face its projection last landed on.
+    pub hint_face: Vec<u32>,
+    /// Per vertex on a line: the line segment its projection last landed on.
+    pub hint_seg: Vec<u32>,
+    /// Per vertex: the target edge length there.
+    pub size: Vec<f64>,
+    /// Per edge: the feature line it lies on, or [`NO_LINE`].
+    pub edge_line: Vec<u32>,
+    /// Per input face: unit normal.
+    pub input_normals: Vec<DVec3>,
+    /// The worker pool of the parallel passes.
+    pub pool: std::sync::Arc<rayon::ThreadPool>,
+}
+
+/// Everything of [`State`] but the pool, built inside the pool.
+pub(super) struct PartialState {
+    mesh: Mesh,
+    input: TriMesh,
+    index: SurfaceIndex,
+    features: FeatureSet,
+    sizing: Option<SizingField>,
+    kind: Vec<u32>,
+    hint_face: Vec<u32>,
+    hint_seg: Vec<u32>,
+    size: Vec<f64>,
+    edge_line: Vec<u32>,
+    input_normals: Vec<DVec3>,
+}
+
+impl State {
+    pub fn new(
+        input: &Mesh,
+        options: &RemeshOptions,
+        pool: rayon::ThreadPool,
+    ) -> Result<Self, RemeshError> {
+        let p = pool.install(|| Self::prepare(input, options))?;
+        Ok(Self {
+            mesh: p.mesh,
+            input: p.input,
+            index: p.index,
+            features: p.features,
+            sizing: p.sizing,
+            kind: p.kind,
+            hint_face: p.hint_face,
+            hint_seg: p.hint_seg,
+            size: p.size,
+            edge_line: p.edge_line,
+            input_normals: p.input_normals,
+            pool: std::sync::Arc::new(pool),
+        })
+    }
+
+    fn prepare(input: &Mesh, options: &RemeshOptions) -> Result<PartialState, RemeshError> {
+        let mut mesh = input.clone();
+        if mesh.has_garbage() {
+            mesh.compact();
+        }
+        let tm = mesh.to_trimesh();
+        let diag = tm.bbox_diagonal();
+        let area = tm.area();
+        let index = SurfaceIndex::from_trimesh(&tm);
+        let features = detect_features(
+            &tm,
+            &FeatureOptions {
+                preserve_features: options.preserve_features,
+                feature_angle_deg: options.feature_angle,
+                corner_angle_deg: options.corner_angle,
+            },
+        );
+        let nv = mesh.vertex_capacity();
+        let (sizing, size) = match options.sizing {
+            Sizing::Uniform => {
+                let l = uniform_target(&mesh, &tm, options, diag, area);
+                check_estimate(area, l, options.max_output_faces)?;
+                (None, vec![l; nv])
+            }
+            Sizing::Adaptive => {
+                let eps = options
+                    .tolerance
+                    .unwrap_or_else(|| options.tolerance_ratio.unwrap_or(0.001) * diag);
+                let mut so = SizingOptions::for_tolerance(eps, diag);
+                if let Some(a) = options.min_edge_length {
+                    so.min_edge_length = a;
+                }
+                if let Some(b) = options.max_edge_length {
+                    so.max_edge_length = b;
+                }
+                so.max_edge_length = so.max_edge_length.max(so.min_edge_length);
+                so.gradation = options.gradation;
+                let is_feature = |a: u32, b: u32| features.is_feature_edge(a, b);
+                let field = SizingField::from_mesh(
+                    &tm,
+                    &so,
+                    &curvature::CurvatureOptions::default(),
+                    Some(&is_feature),
+                )
+                .map_err(|e| RemeshError::InvalidOption {
+                    field: "tolerance",
+                    message: e.to_string(),
+                })?;
+                let sizes = field.vertex_sizes().to_vec();
+                let min = sizes.iter().cloned().fold(f64::INFINITY, f64::min);
+                check_estimate(area, min.max(so.min_edge_length), options.max_output_faces)?;
+                (Some(field), sizes)
+            }
+        };
+        let mut kind = vec![SMOOTH; nv];
+        let mut hint_seg = vec![0u32; nv];
+        for v in 0..nv as u32 {
+            kind[v as usize] = match features.vertex_kind(v) {
+                VertexKind::Smooth => SMOOTH,
+                VertexKind::Corner => CORNER,
+                VertexKind::Line(l) => {
+                    if let Some((_, i)) = features.vertex_line_index(v) {
+                        hint_seg[v as usize] = i.saturating_sub(1);
+                    }
+                    l
+                }
+            };
+        }
+        let mut hint_face = vec![0u32; nv];
+        for f in mesh.faces() {
+            for v in mesh.face_vertices(f) {
+                hint_face[v.idx()] = f.0;
+            }
+        }
+        let mut edge_line = vec![NO_LINE; mesh.edge_capacity()];
+        for e in 0..mesh.edge_capacity() {
+            let [a, b] = mesh.edge_vertices(EdgeId(e as u32));
+            if let Some(l) = features.edge_line(a.0, b.0) {
+                edge_line[e] = l;
+                mesh.edge_flags[EdgeId(e as u32)] |= EDGE_FEATURE;
+            }
+        }
+        let input_normals = (0..index.triangle_count() as u32)
+            .into_par_iter()
+            .map(|f| index.face_normal(f))
+            .collect();
+        Ok(PartialState {
+            mesh,
+            input: tm,
+            index,
+            features,
+            sizing,
+            kind,
+            hint_face,
+            hint_seg,
+            size,
+            edge_line,
+            input_normals,
+        })
+    }
+
+    /// Mean target length over the vertices.
+    pub fn mean_target(&self) -> f64 {
+        self.size.iter().sum::<f64>() / self.size.len().max(1) as f64
+    }
+
+    /// Smallest and largest target length.
+    pub fn target_range(&self) -> [f64; 2] {
+        self.size
+            .iter()
+            .fold([f64::INFINITY, 0.0f64], |[lo, hi], &s| {
+                [lo.min(s), hi.max(s)]
+            })
+    }
+
+    /// The target length for edge `a`–`b`: the mean of the endpoint sizes.
+    #[inline]
+    pub fn edge_target(&self, a: VertexId, b: VertexId) -> f64 {
+        0.5 * (self.size[a.idx()] + self.size[b.idx()])
+    }
+
+    /// The feature line of edge `e`, if it is a feature edge.
+    #[inline]
+    pub fn line_of(&self, e: EdgeId) -> Option<u32> {
+        let l = self.edge_line[e.idx()];
+        (l != NO_LINE).then_some(l)
+    }
+
+    /// Splits `e` at `p`, placing the new vertex on `e`'s feature line when it
+    /// has one, and extends the per-element data.
+    pub fn split(&mut self, e: EdgeId, p: DVec3, seg: u32) -> SplitResult {
+        let [a, b] = self.mesh.edge_vertices(e);
+        let line = self.edge_line[e.idx()];
+        let r = self.mesh.split_edge(e, p);
+        let size = 0.5 * (self.size[a.idx()] + self.size[b.idx()]);
+        let hint = self.hint_face[a.idx()];
+        debug_assert_eq!(r.vertex.idx(), self.kind.len());
+        self.kind.push(if line == NO_LINE { SMOOTH } else { line });
+        self.hint_face.push(hint);
+        self.hint_seg.push(seg);
+        self.size.push(size);
+        self.edge_line.resize(self.mesh.edge_capacity(), NO_LINE);
+        self.edge_line[r.second_half.edge().idx()] = line;
+        r
+    }
+
+    /// Collapses `h` and moves the kept vertex to `p`; merged edges keep a
+    /// feature line if either had one.
+    pub fn collapse(&mut self, h: HalfedgeId, p: DVec3) -> CollapseResult {
+        let r = self.mesh.collapse_edge(h);
+        self.mesh.set_position(r.kept, p);
+        for k in 0..2 {
+            let (gone, kept) = (r.removed_edges[k + 1], r.kept_edges[k]);
+            if gone.is_valid() && self.edge_line[kept.idx()] == NO_LINE {
+                self.edge_line[kept.idx()] = self.edge_line[gone.idx()];
+            }
+        }
+        r
+    }
+
+    /// Compacts the mesh and returns it with per-vertex target sizes.
+    pub fn finish(mut self) -> (Mesh, Vec<f64>) {
+        let remap = self.mesh.compact();
+        let mut sizes = Vec::with_capacity(self.mesh.vertex_count());
+        for (old, &new) in remap.vertices.iter().enumerate() {
+            if new != u32::MAX {
+                sizes.push(self.size[old]);
+            }
+        }
+        (self.mesh, sizes)
+    }
+}
+
+fn uniform_target(mesh: &Mesh, tm: &TriMesh, o: &RemeshOptions, diag: f64, area: f64) -> f64 {
+    if let Some(l) = o.target_edge_length {
+        l
+    } else if let Some(r) = o.target_edge_ratio {
+        r * diag
+    } else if let Some(f) = o.target_faces {
+        (area / (f as f64 * 3f64.sqrt() / 4.0)).sqrt()
+    } else {
+        let (sum, n) = mesh
+            .edges()
+            .fold((0.0, 0usize), |(s, n), e| (s + mesh.edge_length(e), n + 1));
+        let _ = tm;
+        sum / n.max(1) as f64
+    }
+}
+
+fn check_estimate(area: f64, l: f64, limit: u64) -> Result<(), RemeshError> {
+    let est = area / (3f64.sqrt() / 4.0 * l * l);
+    if !(l > 0.0 && l.is_finite()) || est > limit as f64 {
+        return Err(RemeshError::TooManyFaces {
+            target_edge_length: l,
+            estimated_faces: if est.is_finite() {
+                est as u64
+            } else {
+                u64::MAX
+            },
+            limit,
+        });
+    }
+    Ok(())
+}

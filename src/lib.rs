@@ -9,6 +9,7 @@
 //! | [`geometry`] | triangle area, normal, angles, shape quality |
 //! | [`trimesh`] | [`TriMesh`], the indexed triangle mesh exchanged between layers |
 //! | [`mesh`] | the half-edge [`mesh::Mesh`]: building with repair, split/collapse/flip with guards, compaction, validation |
+//! | [`features`] | sharp-feature detection on a [`TriMesh`]: feature edges, corners, feature lines with per-line closest-point queries; the feature-fidelity metric |
 //! | [`io`] | bytes ⇄ [`TriMesh`] for OBJ, glTF/GLB, STL, PLY, OFF; format detection; split normals |
 //! | [`bvh`] | the obvhs-built tree over triangles and our closest-point query |
 //! | [`stats`] | quality statistics: edge lengths, valence, angles, distances |
@@ -17,6 +18,7 @@
 //! filesystem access. The `service` feature adds the HTTP layer on top.
 
 pub mod bvh;
+pub mod features;
 pub mod geometry;
 pub mod io;
 pub mod mesh;

@@ -139,6 +139,8 @@ pub struct FeatureLine {
     point_offset: u32,
     /// Root of this line's segment tree in the set's node arena.
     root: u32,
+    /// Union of the reasons of the line's edges.
+    flags: EdgeFlags,
 }
 
 impl FeatureLine {
@@ -150,6 +152,12 @@ impl FeatureLine {
     /// Whether the line is a closed loop (first vertex equals last).
     pub fn is_closed(&self) -> bool {
         self.vertices.first() == self.vertices.last()
+    }
+
+    /// Why the line is a feature: the union of its edges' [`EdgeFlags`] (a
+    /// crease may continue as a label border through a valence-2 vertex).
+    pub fn flags(&self) -> EdgeFlags {
+        self.flags
     }
 }
 
@@ -269,6 +277,7 @@ pub fn detect_features(mesh: &TriMesh, opts: &FeatureOptions) -> FeatureSet {
             vertices: verts,
             point_offset,
             root: 0,
+            flags: EdgeFlags::default(),
         });
     };
     for &c in &corners {
@@ -287,6 +296,9 @@ pub fn detect_features(mesh: &TriMesh, opts: &FeatureOptions) -> FeatureSet {
         }
     }
 
+    for (e, &[l, _]) in edge_segment.iter().enumerate() {
+        lines[l as usize].flags |= edge_flags[e];
+    }
     let mut tree = SegTree::default();
     for line in &mut lines {
         let pts = &points[line.point_offset as usize..][..line.vertices.len()];

@@ -126,6 +126,7 @@ fn cube_has_its_twelve_box_edges_eight_corners_and_twelve_lines() {
             }
             assert_eq!(fs.lines().len(), 12);
             for l in fs.lines() {
+                assert_eq!(l.flags(), EdgeFlags::SHARP);
                 assert_eq!(l.segment_count(), n as usize);
                 assert!(!l.is_closed());
             }
@@ -195,6 +196,7 @@ fn open_cylinder_has_two_closed_boundary_loops_without_corners() {
     assert_eq!(fs.lines().len(), 2);
     for l in fs.lines() {
         assert!(l.is_closed());
+        assert_eq!(l.flags(), EdgeFlags::BOUNDARY);
         assert_eq!(l.segment_count(), 16);
         let z = m.positions[l.vertices[0] as usize].z;
         assert!(l.vertices.iter().all(|&v| m.positions[v as usize].z == z));
@@ -310,8 +312,9 @@ fn label_border_is_a_feature_even_without_feature_preservation() {
         assert_eq!(fs.edges().len(), 16 + 4);
         // The border meets the boundary in two T-junctions, which are corners.
         assert_eq!(fs.corners().len(), 6);
-        let border_line = fs.edge_line(2, 7).unwrap();
-        assert_eq!(fs.lines()[border_line as usize].segment_count(), 4);
+        let border_line = &fs.lines()[fs.edge_line(2, 7).unwrap() as usize];
+        assert_eq!(border_line.segment_count(), 4);
+        assert_eq!(border_line.flags(), EdgeFlags::LABEL_BORDER);
     }
     // Unlabelled, the same grid has no interior features.
     let mut plain = m.clone();

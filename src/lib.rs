@@ -9,10 +9,14 @@
 //! | [`geometry`] | triangle area, normal, angles, shape quality |
 //! | [`trimesh`] | [`TriMesh`], the indexed triangle mesh exchanged between layers |
 //! | [`mesh`] | the half-edge [`mesh::Mesh`]: building with repair, split/collapse/flip with guards, compaction, validation |
+//! | [`features`] | sharp-feature detection on a [`TriMesh`]: feature edges, corners, feature lines with per-line closest-point queries; the feature-fidelity metric |
 //! | [`io`] | bytes ⇄ [`TriMesh`] for OBJ, glTF/GLB, STL, PLY, OFF; format detection; split normals |
 //! | [`bvh`] | the obvhs-built tree over triangles and our closest-point query |
 //! | [`stats`] | quality statistics: edge lengths, valence, angles, distances |
 //! | [`curvature`] | per-vertex principal curvatures (Rusinkiewicz 2004), feature-aware, and feature-polyline curvature |
+//! | [`remesh`] | the Botsch–Kobbelt remesher: options, driver, one pass per file, progress and cancellation |
+//! | [`pipeline`] | a whole job on bytes: detect, read, repair, remesh, measure, encode |
+//! | [`shapes`] | icosphere, torus, cylinder, cube and other shapes generated in code |
 //! | [`sizing`] | the adaptive sizing field: target edge lengths from a tolerance, clamped and gradation-limited |
 //!
 //! The geometry core above is pure and synchronous: no async runtime and no

@@ -340,6 +340,22 @@ fn obj_materials_become_labels_and_survive_a_round_trip() {
 }
 
 #[test]
+fn crlf_line_endings_are_read() {
+    for (name, format, faces) in [
+        ("cube.obj", Format::Obj, 12),
+        ("cube_ascii.ply", Format::Ply, 12),
+        ("cube_ascii.stl", Format::Stl, 12),
+        ("fertility.off", Format::Off, 9000),
+    ] {
+        let text = String::from_utf8(data(name)).unwrap().replace('\n', "\r\n");
+        assert_eq!(Format::from_magic(text.as_bytes()), Some(format), "{name}");
+        let r = io::read(text.as_bytes(), format, &ReadOptions::default()).unwrap();
+        assert_eq!(r.mesh, load(name).mesh, "{name}");
+        assert_eq!(r.mesh.face_count(), faces);
+    }
+}
+
+#[test]
 fn obj_polygons_and_relative_indices() {
     let text = "v 0 0 0\nv 2 0 0\nv 2 2 0\nv 0 2 0\nv 1 3 0\nf 1 2 3 5 4\nf -5 -4 -3\n";
     let r = io::read(text.as_bytes(), Format::Obj, &ReadOptions::default()).unwrap();
@@ -661,6 +677,11 @@ fn format_detection() {
     // A binary STL whose header starts with "solid" is still binary.
     let mut stl = data("spot_binary.stl");
     stl[..6].copy_from_slice(b"solid ");
+    assert_eq!(Format::from_magic(&stl), Some(Format::Stl));
+    let r = io::read(&stl, Format::Stl, &ReadOptions::default()).unwrap();
+    assert_eq!(r.mesh.face_count(), 5856);
+    // ... also with a few trailing bytes after the last facet.
+    stl.extend_from_slice(&[0; 16]);
     assert_eq!(Format::from_magic(&stl), Some(Format::Stl));
     let r = io::read(&stl, Format::Stl, &ReadOptions::default()).unwrap();
     assert_eq!(r.mesh.face_count(), 5856);

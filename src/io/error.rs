@@ -5,7 +5,6 @@ use super::Format;
 
 /// Why reading or writing a mesh failed.
 #[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
 pub enum IoError {
     /// The format could not be determined or a format name is unknown.
     #[error("unknown mesh format: {hint} (known formats: obj, gltf, glb, stl, ply, off)")]
@@ -67,7 +66,7 @@ pub enum IoError {
     },
     /// A glTF buffer lives in another file that the caller did not provide.
     /// isoremesh never opens a file or URL named inside a model.
-    #[error("glTF buffer refers to the external file {uri:?}, which was not provided (upload it alongside the .gltf)")]
+    #[error("glTF buffer refers to the external file {uri:?}, which was not provided (isoremesh never opens files named inside a model; supply it together with the .gltf)")]
     ExternalBuffer {
         /// The buffer's `uri` as written in the file.
         uri: String,

@@ -106,9 +106,9 @@ impl Format {
             return Some(Format::Off);
         }
         // A binary STL header may itself start with "solid", so the size
-        // rule wins over the keyword.
-        let binary_stl =
-            bytes.len() >= 84 && binary_stl_size(bytes).is_some_and(|n| n == bytes.len() as u64);
+        // rule wins over the keyword. Some writers append a few bytes.
+        let len = bytes.len() as u64;
+        let binary_stl = binary_stl_size(bytes).is_some_and(|n| n <= len && len - n <= 1024);
         if binary_stl {
             return Some(Format::Stl);
         }

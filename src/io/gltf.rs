@@ -631,7 +631,8 @@ pub(super) fn read(bytes: &[u8], format: Format, opts: &ReadOptions) -> Result<I
     let (json_bytes, bin) = if is_glb {
         split_glb(bytes)?
     } else {
-        (bytes, None)
+        // A byte order mark is tolerated in .gltf text (not in GLB).
+        (bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes), None)
     };
     let root: json::Root = serde_json::from_slice(json_bytes)
         .map_err(|e| IoError::parse(format, format!("JSON: {e}")))?;

@@ -4,9 +4,11 @@
 //! & Wüthrich 1998, "Computing vertex normals from polygonal facets").
 //!
 //! Fans are found with a union-find over face corners: across every interior
-//! edge that is smooth (two consistently oriented faces, dihedral angle at
-//! most the crease angle, same label, not listed as sharp) the two faces'
-//! corners at each end are joined. Each resulting class is one output
+//! edge that is smooth (exactly two faces, consistently oriented, dihedral
+//! angle at most the crease angle, same label, not listed as sharp) the two
+//! faces' corners at each end are joined. Twins are found through a
+//! per-vertex list of outgoing edges, so the cost is linear in the corners
+//! times the valence, without sorting. Each resulting class is one output
 //! vertex. Boundary and non-manifold edges always separate fans. The input
 //! is expected to share vertices (welded); an unwelded soup gets flat
 //! shading, because no edge is interior.
@@ -55,7 +57,8 @@ fn union(parent: &mut [u32], a: u32, b: u32) {
 ///
 /// # Panics
 ///
-/// When the mesh has more than (2^32 - 1) / 3 triangles (corner ids are u32).
+/// When `mesh` breaks [`TriMesh::check`] (an index out of range) or has more
+/// than (2^32 - 1) / 3 triangles (corner ids are u32).
 pub fn with_split_normals(
     mesh: &TriMesh,
     crease_angle_deg: f64,
@@ -81,48 +84,65 @@ pub fn with_split_normals(
         })
         .collect();
 
-    let mut edges: Vec<(u64, u32)> = (0..corners)
-        .into_par_iter()
-        .map(|c| {
-            let t = &tris[c / 3];
-            let k = c % 3;
-            (edge_key(t[k], t[(k + 1) % 3]), c as u32)
-        })
-        .collect();
-    edges.par_sort_unstable();
+    // Outgoing edges per vertex (CSR): corner c stands for the edge from
+    // its vertex to the next corner's vertex.
+    let head = |c: usize| tris[c / 3][c % 3];
+    let tail = |c: usize| tris[c / 3][(c % 3 + 1) % 3];
+    let mut start = vec![0u32; n + 1];
+    for t in tris {
+        for &v in t {
+            start[v as usize + 1] += 1;
+        }
+    }
+    for v in 0..n {
+        start[v + 1] += start[v];
+    }
+    let mut fill = start.clone();
+    let mut outgoing = vec![0u32; corners];
+    for c in 0..corners {
+        let v = head(c) as usize;
+        outgoing[fill[v] as usize] = c as u32;
+        fill[v] += 1;
+    }
+    drop(fill);
+    let out_of = |v: u32| &outgoing[start[v as usize] as usize..start[v as usize + 1] as usize];
 
     let sharp: HashSet<u64> = extra_sharp_edges
         .iter()
         .map(|&[a, b]| edge_key(a, b))
         .collect();
     let cos_crease = crease_angle_deg.to_radians().cos();
-    let mut parent: Vec<u32> = (0..corners as u32).collect();
-    let mut i = 0;
-    while i < edges.len() {
-        let key = edges[i].0;
-        let mut j = i + 1;
-        while j < edges.len() && edges[j].0 == key {
-            j += 1;
-        }
-        if j - i == 2 && !sharp.contains(&key) {
-            let (c1, c2) = (edges[i].1 as usize, edges[i + 1].1 as usize);
-            let (f1, k1, f2, k2) = (c1 / 3, c1 % 3, c2 / 3, c2 % 3);
-            let (a1, b1) = (tris[f1][k1], tris[f1][(k1 + 1) % 3]);
-            let (a2, b2) = (tris[f2][k2], tris[f2][(k2 + 1) % 3]);
-            let consistent = f1 != f2 && a1 == b2 && b1 == a2 && a1 != b1;
-            let same_label = mesh.face_label(f1) == mesh.face_label(f2);
+    // Smooth interior edges as (corner a->b, corner b->a), each once (from
+    // the side with a < b). An edge is interior only when exactly one face
+    // runs a->b and exactly one runs b->a.
+    let pairs: Vec<(u32, u32)> = (0..corners)
+        .into_par_iter()
+        .filter_map(|c| {
+            let (a, b) = (head(c), tail(c));
+            if a >= b || sharp.contains(&edge_key(a, b)) {
+                return None;
+            }
+            let forward = out_of(a).iter().filter(|&&e| tail(e as usize) == b).count();
+            let mut back = out_of(b).iter().filter(|&&e| tail(e as usize) == a);
+            let (Some(&twin), None) = (back.next(), back.next()) else {
+                return None;
+            };
+            let (f1, f2) = (c / 3, twin as usize / 3);
+            if forward != 1 || f1 == f2 || mesh.face_label(f1) != mesh.face_label(f2) {
+                return None;
+            }
             let (n1, n2) = (per_face[f1].1, per_face[f2].1);
             // A degenerate face has no normal to compare; it contributes no
             // weight either, so joining across it is harmless.
             let flat_enough = n1 == DVec3::ZERO || n2 == DVec3::ZERO || n1.dot(n2) >= cos_crease;
-            if consistent && same_label && flat_enough {
-                let next2 = (3 * f2 + (k2 + 1) % 3) as u32;
-                let next1 = (3 * f1 + (k1 + 1) % 3) as u32;
-                union(&mut parent, c1 as u32, next2); // corners at a1
-                union(&mut parent, next1, c2 as u32); // corners at b1
-            }
-        }
-        i = j;
+            flat_enough.then_some((c as u32, twin))
+        })
+        .collect();
+    let mut parent: Vec<u32> = (0..corners as u32).collect();
+    let next = |c: u32| 3 * (c / 3) + (c % 3 + 1) % 3;
+    for &(c, twin) in &pairs {
+        union(&mut parent, c, next(twin)); // the two corners at a
+        union(&mut parent, next(c), twin); // the two corners at b
     }
 
     // Number the classes: the first class met at a vertex keeps its index.

@@ -301,38 +301,52 @@ impl SizingField {
     }
 }
 
-/// Enforces `h(v) ≤ h(u) + g·|uv|` on every edge by multi-source Dijkstra
-/// from all vertices at their initial sizes: each vertex is settled once at
-/// its final value `min_u (h(u) + g·d(u, v))`, so the result is exact for
-/// the edge-graph metric and leaves an already graded field untouched.
+/// Enforces `h(v) ≤ h(u) + g·|uv|` on every edge: `h(v) = min_u (h(u) +
+/// g·d(u, v))` by multi-source Dijkstra. Only vertices that violate the
+/// bound towards a neighbour seed the queue — a vertex that improves none of
+/// its neighbours cannot improve anything farther away either — so a field
+/// that already satisfies the bound costs one parallel check and is left
+/// untouched. Each vertex is settled once at its final value, which makes
+/// the result exact for the edge-graph metric.
 fn limit_gradation(mesh: &TriMesh, topo: &Topology, sizes: &mut [f64], g: f64) {
+    use rayon::prelude::*;
     if !g.is_finite() {
         return;
     }
     let pos = &mesh.positions;
     let tri = &mesh.triangles;
+    let neighbours = |v: usize| {
+        topo.vertex_corners(v).iter().flat_map(|&c| {
+            let t = &tri[(c / 3) as usize];
+            let k = (c % 3) as usize;
+            [t[(k + 1) % 3], t[(k + 2) % 3]]
+        })
+    };
     // Positive finite f64 order like their bit patterns, which makes a cheap
     // total-order heap key.
-    let mut heap: BinaryHeap<Reverse<(u64, u32)>> = sizes
-        .iter()
-        .enumerate()
-        .map(|(v, h)| Reverse((h.to_bits(), v as u32)))
-        .collect();
+    let seeds: Vec<Reverse<(u64, u32)>> = {
+        let sizes = &*sizes;
+        (0..sizes.len())
+            .into_par_iter()
+            .filter(|&v| {
+                let (hv, pv) = (sizes[v], pos[v]);
+                neighbours(v).any(|o| hv + g * (pos[o as usize] - pv).length() < sizes[o as usize])
+            })
+            .map(|v| Reverse((sizes[v].to_bits(), v as u32)))
+            .collect()
+    };
+    let mut heap = BinaryHeap::from(seeds);
     while let Some(Reverse((bits, v))) = heap.pop() {
         let hv = sizes[v as usize];
         if bits != hv.to_bits() {
             continue;
         }
         let pv = pos[v as usize];
-        for &c in topo.vertex_corners(v as usize) {
-            let t = &tri[(c / 3) as usize];
-            let k = (c % 3) as usize;
-            for o in [t[(k + 1) % 3], t[(k + 2) % 3]] {
-                let cand = hv + g * (pos[o as usize] - pv).length();
-                if cand < sizes[o as usize] {
-                    sizes[o as usize] = cand;
-                    heap.push(Reverse((cand.to_bits(), o)));
-                }
+        for o in neighbours(v as usize) {
+            let cand = hv + g * (pos[o as usize] - pv).length();
+            if cand < sizes[o as usize] {
+                sizes[o as usize] = cand;
+                heap.push(Reverse((cand.to_bits(), o)));
             }
         }
     }

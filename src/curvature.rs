@@ -47,9 +47,10 @@ use crate::trimesh::TriMesh;
 pub type FeatureEdgeFn<'a> = &'a (dyn Fn(u32, u32) -> bool + Sync);
 
 /// Default number of smoothing passes applied by [`principal_curvatures`].
-/// Two passes of a ½-weighted neighbour average remove most of the
-/// triangle-to-triangle noise of the per-face fits on irregular meshes while
-/// moving a smoothly varying curvature by O(h²) only.
+/// Two passes of a ½-weighted neighbour average halve the worst
+/// triangle-to-triangle noise of the per-face fits on irregular meshes (max
+/// error 12 % → 6 % on a jittered icosphere, see the tests) while moving a
+/// smoothly varying curvature by O(h²) only.
 pub const DEFAULT_SMOOTHING_PASSES: u32 = 2;
 
 /// Turning angle (radians) at or above which a vertex of a feature or

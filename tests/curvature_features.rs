@@ -224,3 +224,44 @@ fn bad_indices_are_an_error_and_empty_is_fine() {
             .is_empty()
     );
 }
+
+mod random_soup {
+    use super::*;
+    use isoremesh::sizing::{SizingField, SizingOptions};
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        /// Arbitrary soups (duplicates, repeated indices, non-manifold fans,
+        /// mixed orientation) give finite curvature and a valid sizing field.
+        #[test]
+        fn soups_never_break_the_estimator(
+            pts in prop::collection::vec((0i32..4, 0i32..4, 0i32..4), 3..30),
+            tris in prop::collection::vec((0usize..30, 0usize..30, 0usize..30), 0..60),
+        ) {
+            let positions: Vec<DVec3> = pts
+                .iter()
+                .map(|&(x, y, z)| DVec3::new(x as f64, y as f64, z as f64))
+                .collect();
+            let n = positions.len();
+            let triangles = tris
+                .iter()
+                .map(|&(a, b, c)| [(a % n) as u32, (b % n) as u32, (c % n) as u32])
+                .collect();
+            let mesh = TriMesh::new(positions, triangles);
+            let feature = |a: u32, b: u32| (a + b) % 3 == 0;
+            let curv = principal_curvatures(&mesh, &CurvatureOptions::default(), Some(&feature))
+                .unwrap();
+            prop_assert_eq!(curv.len(), n);
+            for c in &curv {
+                prop_assert!(c.k1.is_finite() && c.k2.is_finite() && c.k1 >= c.k2);
+                prop_assert!(c.dir1.is_finite() && c.dir2.is_finite());
+            }
+            let opts = SizingOptions::for_tolerance(0.01, 5.0);
+            let field = SizingField::build(&mesh, &curv, &opts, Some(&feature)).unwrap();
+            for &h in field.vertex_sizes() {
+                prop_assert!(h >= opts.min_edge_length && h <= opts.max_edge_length);
+            }
+        }
+    }
+}

@@ -28,6 +28,10 @@ const MIN_QUALITY: f64 = 0.05;
 /// Largest normal change of a face caused by one move step (60°), as a cosine.
 const MAX_NORMAL_CHANGE_COS: f64 = 0.5;
 
+/// Where a vertex projects: the point, the new face and segment hints, and
+/// the surface face and barycentric coordinates under it (for sizing).
+type Projected = (DVec3, u32, u32, Option<(u32, DVec3)>);
+
 /// One step of tangential relaxation; returns the number of limited moves.
 pub(super) fn relax_tangentially(st: &mut State) -> u64 {
     let m = &st.mesh;
@@ -114,7 +118,7 @@ pub(super) fn project_to_input(st: &mut State) -> u64 {
     let hint_face = &st.hint_face;
     let hint_seg = &st.hint_seg;
     let input = &st.input;
-    let results: Vec<(DVec3, u32, u32, Option<(u32, DVec3)>)> = st.pool.install(|| {
+    let results: Vec<Projected> = st.pool.install(|| {
         (0..m.vertex_capacity() as u32)
             .into_par_iter()
             .map(|i| {

@@ -163,10 +163,10 @@ impl State {
             }
         }
         let mut edge_line = vec![NO_LINE; mesh.edge_capacity()];
-        for e in 0..mesh.edge_capacity() {
+        for (e, line) in edge_line.iter_mut().enumerate() {
             let [a, b] = mesh.edge_vertices(EdgeId(e as u32));
             if let Some(l) = features.edge_line(a.0, b.0) {
-                edge_line[e] = l;
+                *line = l;
                 mesh.edge_flags[EdgeId(e as u32)] |= EDGE_FEATURE;
             }
         }

@@ -149,23 +149,24 @@ fn build(input: &TriMesh) -> Result<(Mesh, RepairReport), BuildError> {
     let mut report = RepairReport::default();
 
     // 2. Weld equal positions: sort vertex ids by their coordinate bits.
-    let mut order: Vec<u32> = (0..n as u32).collect();
-    let keys: Vec<[u64; 3]> = input
+    // Sorting (key, id) records directly keeps the sort cache-friendly.
+    let mut order: Vec<([u64; 3], u32)> = input
         .positions
         .par_iter()
-        .map(|p| [key_bits(p.x), key_bits(p.y), key_bits(p.z)])
+        .enumerate()
+        .map(|(i, p)| ([key_bits(p.x), key_bits(p.y), key_bits(p.z)], i as u32))
         .collect();
-    order.par_sort_unstable_by_key(|&i| (keys[i as usize], i));
+    order.par_sort_unstable();
     let mut weld = vec![0u32; n];
     let mut welded_pos: Vec<DVec3> = Vec::with_capacity(n);
-    for (k, &i) in order.iter().enumerate() {
-        if k == 0 || keys[i as usize] != keys[order[k - 1] as usize] {
+    for k in 0..order.len() {
+        let (key, i) = order[k];
+        if k == 0 || key != order[k - 1].0 {
             welded_pos.push(input.positions[i as usize]);
         }
         weld[i as usize] = (welded_pos.len() - 1) as u32;
     }
     report.welded_vertices = (n - welded_pos.len()) as u64;
-    drop(keys);
     drop(order);
 
     // 3. Degenerate and duplicate faces.
@@ -194,17 +195,20 @@ fn build(input: &TriMesh) -> Result<(Mesh, RepairReport), BuildError> {
     }
     drop(weld);
     {
-        let mut by_key: Vec<u32> = (0..tris.len() as u32).collect();
-        let sorted_key = |f: u32| {
-            let mut t = tris[f as usize];
-            t.sort_unstable();
-            t
-        };
-        by_key.par_sort_unstable_by_key(|&f| (sorted_key(f), f));
+        let mut by_key: Vec<(u128, u32)> = tris
+            .par_iter()
+            .enumerate()
+            .map(|(f, t)| {
+                let mut t = *t;
+                t.sort_unstable();
+                (((t[0] as u128) << 64) | ((t[1] as u128) << 32) | t[2] as u128, f as u32)
+            })
+            .collect();
+        by_key.par_sort_unstable();
         let mut keep = vec![true; tris.len()];
         for w in by_key.windows(2) {
-            if sorted_key(w[0]) == sorted_key(w[1]) {
-                keep[w[1] as usize] = false;
+            if w[0].0 == w[1].0 {
+                keep[w[1].1 as usize] = false;
                 report.duplicate_faces += 1;
             }
         }
@@ -251,20 +255,23 @@ fn build(input: &TriMesh) -> Result<(Mesh, RepairReport), BuildError> {
         let (a, b) = (corner_from(c, tris), corner_to(c, tris));
         ((a.min(b) as u64) << 32) | a.max(b) as u64
     };
-    let mut corners: Vec<u32> = (0..(3 * nf) as u32).collect();
-    corners.par_sort_unstable_by_key(|&c| (undirected(c as usize, &tris), c));
+    let mut corners: Vec<(u64, u32)> = (0..(3 * nf) as u32)
+        .into_par_iter()
+        .map(|c| (undirected(c as usize, &tris), c))
+        .collect();
+    corners.par_sort_unstable();
     let mut partner = vec![NONE; 3 * nf];
     let mut i = 0;
     while i < corners.len() {
-        let key = undirected(corners[i] as usize, &tris);
+        let key = corners[i].0;
         let mut j = i + 1;
-        while j < corners.len() && undirected(corners[j] as usize, &tris) == key {
+        while j < corners.len() && corners[j].0 == key {
             j += 1;
         }
         match j - i {
             1 => {}
             2 => {
-                let (c1, c2) = (corners[i], corners[i + 1]);
+                let (c1, c2) = (corners[i].1, corners[i + 1].1);
                 partner[c1 as usize] = c2;
                 partner[c2 as usize] = c1;
             }
@@ -361,6 +368,8 @@ fn build(input: &TriMesh) -> Result<(Mesh, RepairReport), BuildError> {
         },
         ..Default::default()
     };
+    // Euler: E ≈ 1.5 F for closed meshes; boundary edges add a little.
+    mesh.reserve(0, 3 * nf / 2 + 16, nf);
     let mut he_of_corner = vec![HalfedgeId::INVALID; 3 * nf];
     for c in 0..3 * nf {
         if he_of_corner[c].is_valid() {

@@ -196,18 +196,41 @@ impl Mesh {
         for w in [vl, vr] {
             if w.is_valid() {
                 let min = if self.is_boundary_vertex(w) { 2 } else { 3 };
-                if self.valence(w) <= min {
+                if self.outgoing(w).take(min + 1).count() <= min {
                     return false;
                 }
             }
         }
-        // Link condition: mark v1's neighbours, then scan v0's.
+        // Link condition: the common neighbours of v0 and v1 are only vl and
+        // vr. Sorting v1's ring and searching it keeps this O(n log n) in the
+        // valences, so high-valence fan centres of CAD meshes stay cheap.
+        let mut small = [VertexId::INVALID; 64];
+        let mut large: Vec<VertexId> = Vec::new();
+        let mut n = 0usize;
+        for h1 in self.outgoing(v1) {
+            let w = self.to_vertex(h1);
+            if n < small.len() {
+                small[n] = w;
+            } else {
+                if large.is_empty() {
+                    large.extend_from_slice(&small);
+                }
+                large.push(w);
+            }
+            n += 1;
+        }
+        let ring: &mut [VertexId] = if large.is_empty() {
+            &mut small[..n]
+        } else {
+            &mut large[..]
+        };
+        ring.sort_unstable();
         for h0 in self.outgoing(v0) {
             let w = self.to_vertex(h0);
             if w == v1 || w == vl || w == vr {
                 continue;
             }
-            if self.outgoing(w).any(|hw| self.to_vertex(hw) == v1) {
+            if ring.binary_search(&w).is_ok() {
                 return false;
             }
         }
@@ -379,11 +402,22 @@ impl Mesh {
         }
         for v in [self.to_vertex(h), self.to_vertex(o)] {
             let min = if self.is_boundary_vertex(v) { 2 } else { 3 };
-            if self.valence(v) <= min {
+            if self.outgoing(v).take(min + 1).count() <= min {
                 return false;
             }
         }
-        !self.outgoing(c).any(|hc| self.to_vertex(hc) == d)
+        // Walk both rings in step: O(min valence) even at a fan centre.
+        let (mut rc, mut rd) = (self.outgoing(c), self.outgoing(d));
+        loop {
+            match (rc.next(), rd.next()) {
+                (None, _) | (_, None) => return true,
+                (Some(x), Some(y)) => {
+                    if self.to_vertex(x) == d || self.to_vertex(y) == c {
+                        return false;
+                    }
+                }
+            }
+        }
     }
 
     /// Flips interior edge `e` so that it joins the two opposite corners.

@@ -341,6 +341,21 @@ impl Mesh {
 
     // ---- low-level construction (used by build and edit) -------------------
 
+    /// Reserves room for `vertices`, `edges` and `faces` more elements.
+    pub fn reserve(&mut self, vertices: usize, edges: usize, faces: usize) {
+        self.pos.reserve(vertices);
+        self.v_out.reserve(vertices);
+        self.v_deleted.reserve(vertices);
+        for v in [&mut self.he_next, &mut self.he_prev] {
+            v.reserve(2 * edges);
+        }
+        self.he_to.reserve(2 * edges);
+        self.he_face.reserve(2 * edges);
+        self.e_deleted.reserve(edges);
+        self.f_he.reserve(faces);
+        self.f_deleted.reserve(faces);
+    }
+
     fn new_vertex(&mut self, p: DVec3) -> VertexId {
         self.pos.push(p);
         self.v_out.push(HalfedgeId::INVALID);

@@ -21,6 +21,10 @@ use crate::mesh::{EdgeId, HalfedgeId, Handle};
 const MAX_NORMAL_CHANGE_COS: f64 = std::f64::consts::FRAC_1_SQRT_2;
 /// A collapse may not leave a face with quality below this unless the face was already worse.
 const MIN_QUALITY: f64 = 0.2;
+/// A collapse may not create a vertex with more edges than this. Besides
+/// keeping valences near 6, this bounds the cost of every check around the
+/// high-valence fan centres that CAD tessellations contain.
+const MAX_VALENCE_AFTER: usize = 12;
 
 /// Collapses short edges in one sweep; returns the number of collapses.
 pub(super) fn collapse_short_edges(
@@ -46,7 +50,7 @@ pub(super) fn collapse_short_edges(
         for k in 0..2 {
             let h = e.halfedge(k);
             if let Some(p) = allowed_position(st, h) {
-                if !st.mesh.can_collapse(h) {
+                if !valence_ok(st, h) || !st.mesh.can_collapse(h) {
                     continue;
                 }
                 if let Some(q) = collapse_quality(st, h, p) {
@@ -66,6 +70,18 @@ pub(super) fn collapse_short_edges(
         }
     }
     Ok(count)
+}
+
+/// Whether the merged vertex stays at most [`MAX_VALENCE_AFTER`]; counts
+/// stop early, so a fan centre costs O(1).
+fn valence_ok(st: &State, h: HalfedgeId) -> bool {
+    let m = &st.mesh;
+    let cap = MAX_VALENCE_AFTER + 4;
+    let v0 = m.outgoing(m.from_vertex(h)).take(cap).count();
+    let v1 = m.outgoing(m.to_vertex(h)).take(cap).count();
+    // The edge itself and the two merged pairs disappear (one fewer per boundary side).
+    let shared = if m.is_boundary_edge(h.edge()) { 3 } else { 4 };
+    v0 + v1 <= MAX_VALENCE_AFTER + shared
 }
 
 /// The feature rules: where the kept vertex goes if `h` (removing its

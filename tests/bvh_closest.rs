@@ -191,6 +191,19 @@ fn far_from_origin_matches_brute_force() {
 }
 
 #[test]
+fn huge_and_tiny_meshes_match_brute_force() {
+    // Beyond the f32 range and below its normal range: the index works in a
+    // rescaled frame.
+    for scale in [1e30, 1e-30] {
+        let mut m = shapes::torus(2.0, 0.5, 32, 12);
+        for p in &mut m.positions {
+            *p = (*p + DVec3::new(3.0, -1.0, 0.5)) * scale;
+        }
+        check_mesh(&m, 9, 1000);
+    }
+}
+
+#[test]
 fn random_soup_matches_brute_force() {
     let mut rng = Rng(4);
     let mut positions = Vec::new();

@@ -27,6 +27,7 @@ use obvhs::bvh2::leaf_collapser::collapse;
 use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
 use obvhs::bvh2::Bvh2;
 use obvhs::ploc::{PlocBuilder, PlocSearchDistance, SortPrecision};
+use rayon::prelude::*;
 
 use crate::trimesh::TriMesh;
 
@@ -76,8 +77,9 @@ pub struct SurfaceIndex {
     triangles: Vec<[u32; 3]>,
     /// Unit normal per face (zero for degenerate or unindexed faces).
     normals: Vec<DVec3>,
-    /// The tree; leaf ranges index `corners` / `slot_face` ("slots").
-    bvh: Bvh2,
+    /// The tree as sibling pairs in depth-first order; pair 0 holds the
+    /// root (slot 0). Leaf ranges index `corners` / `slot_face` ("slots").
+    pairs: Vec<NodePair>,
     /// Corner positions per slot, in leaf order, so a leaf's triangles are contiguous.
     corners: Vec<[DVec3; 3]>,
     /// Face index per slot.
@@ -86,6 +88,8 @@ pub struct SurfaceIndex {
     face_slot: Vec<u32>,
     /// Origin of the local frame the f32 boxes are expressed in.
     center: DVec3,
+    /// Scale of the local frame (a power of two): local = (p − center)·scale.
+    scale: f64,
     /// Largest norm of a corner in the local frame.
     radius: f64,
     /// Depth of the tree (root = 1); selects the stack.
@@ -97,7 +101,7 @@ impl std::fmt::Debug for SurfaceIndex {
         f.debug_struct("SurfaceIndex")
             .field("triangles", &self.triangles.len())
             .field("indexed", &self.slot_face.len())
-            .field("nodes", &self.bvh.nodes.len())
+            .field("node_pairs", &self.pairs.len())
             .field("depth", &self.depth)
             .finish()
     }
@@ -147,85 +151,107 @@ impl SurfaceIndex {
     /// mesh is allowed; its queries return `None`.
     pub fn new(positions: &[DVec3], triangles: &[[u32; 3]]) -> Self {
         let n = positions.len();
-        let mut normals = vec![DVec3::ZERO; triangles.len()];
         // Faces that take part in queries: valid indices, finite corners.
-        let mut usable: Vec<u32> = Vec::with_capacity(triangles.len());
-        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-        for (f, t) in triangles.iter().enumerate() {
+        let corners_of = |t: &[u32; 3]| -> Option<[DVec3; 3]> {
             if t.iter().any(|&v| v as usize >= n) {
-                continue;
+                return None;
             }
             let c = [
                 positions[t[0] as usize],
                 positions[t[1] as usize],
                 positions[t[2] as usize],
             ];
-            if !c.iter().all(|p| p.is_finite()) {
-                continue;
-            }
-            for p in c {
-                lo = lo.min(p);
-                hi = hi.max(p);
-            }
-            normals[f] = crate::geometry::triangle_normal(c);
-            usable.push(f as u32);
-        }
-        let center = if usable.is_empty() {
-            DVec3::ZERO
-        } else {
-            (lo + hi) * 0.5
+            c.iter().all(|p| p.is_finite()).then_some(c)
         };
+        let normals: Vec<DVec3> = triangles
+            .par_iter()
+            .map(|t| corners_of(t).map_or(DVec3::ZERO, crate::geometry::triangle_normal))
+            .collect();
+        let empty = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        let (lo, hi) = triangles
+            .par_iter()
+            .filter_map(corners_of)
+            .fold(
+                || empty,
+                |(lo, hi), c| {
+                    (
+                        lo.min(c[0].min(c[1]).min(c[2])),
+                        hi.max(c[0].max(c[1]).max(c[2])),
+                    )
+                },
+            )
+            .reduce(|| empty, |a, b| (a.0.min(b.0), a.1.max(b.1)));
+        let center = if lo.x <= hi.x {
+            (lo + hi) * 0.5
+        } else {
+            DVec3::ZERO
+        };
+        let radius = triangles
+            .par_iter()
+            .filter_map(corners_of)
+            .map(|c| c.iter().map(|p| (*p - center).length()).fold(0.0, f64::max))
+            .reduce(|| 0.0, f64::max);
+        // A power of two brings the frame to about unit size: exact in f64,
+        // and f32 boxes can neither overflow nor lose small meshes to underflow.
+        let exponent = if radius > 0.0 {
+            radius.log2().ceil().clamp(-1000.0, 1000.0) as i32
+        } else {
+            0
+        };
+        let scale = 2f64.powi(-exponent);
 
-        // Boxes in the local frame, rounded outward so that each contains its
-        // f64 triangle exactly.
-        let mut radius: f64 = 0.0;
-        let boxes: Vec<Aabb> = usable
-            .iter()
-            .map(|&f| {
-                let t = triangles[f as usize];
+        // Boxes in the scaled local frame, rounded outward so that each
+        // contains its f64 triangle exactly. A face whose box is not finite
+        // (coordinates near the f64 limit) is left out.
+        let (usable, boxes): (Vec<u32>, Vec<Aabb>) = triangles
+            .par_iter()
+            .enumerate()
+            .filter_map(|(f, t)| {
+                let c = corners_of(t)?;
                 let mut bmin = Vec3A::splat(f32::INFINITY);
                 let mut bmax = Vec3A::splat(f32::NEG_INFINITY);
-                for &v in &t {
-                    let l = positions[v as usize] - center;
-                    radius = radius.max(l.length());
-                    let down = Vec3A::new(f32_below(l.x), f32_below(l.y), f32_below(l.z));
-                    let up = Vec3A::new(f32_above(l.x), f32_above(l.y), f32_above(l.z));
-                    bmin = bmin.min(down);
-                    bmax = bmax.max(up);
+                for p in c {
+                    let l = (p - center) * scale;
+                    bmin = bmin.min(Vec3A::new(f32_below(l.x), f32_below(l.y), f32_below(l.z)));
+                    bmax = bmax.max(Vec3A::new(f32_above(l.x), f32_above(l.y), f32_above(l.z)));
                 }
-                Aabb::new(bmin, bmax)
+                (bmin.is_finite() && bmax.is_finite()).then(|| (f as u32, Aabb::new(bmin, bmax)))
             })
-            .collect();
+            .unzip();
 
         let bvh = build_tree(&boxes);
         drop(boxes);
+        let (pairs, slot_prim, depth) = flatten(&bvh);
+        drop(bvh);
 
-        let mut corners = Vec::with_capacity(bvh.primitive_indices.len());
-        let mut slot_face = Vec::with_capacity(bvh.primitive_indices.len());
+        let slot_face: Vec<u32> = slot_prim.par_iter().map(|&p| usable[p as usize]).collect();
+        let corners: Vec<[DVec3; 3]> = slot_face
+            .par_iter()
+            .map(|&f| {
+                let t = triangles[f as usize];
+                [
+                    positions[t[0] as usize],
+                    positions[t[1] as usize],
+                    positions[t[2] as usize],
+                ]
+            })
+            .collect();
         let mut face_slot = vec![u32::MAX; triangles.len()];
-        for (slot, &prim) in bvh.primitive_indices.iter().enumerate() {
-            let f = usable[prim as usize];
-            let t = triangles[f as usize];
-            corners.push([
-                positions[t[0] as usize],
-                positions[t[1] as usize],
-                positions[t[2] as usize],
-            ]);
-            slot_face.push(f);
+        for (slot, &f) in slot_face.iter().enumerate() {
             face_slot[f as usize] = slot as u32;
         }
-        let depth = tree_depth(&bvh);
 
         Self {
             positions: positions.to_vec(),
             triangles: triangles.to_vec(),
             normals,
-            bvh,
+            pairs,
             corners,
             slot_face,
             face_slot,
             center,
-            radius,
+            scale,
+            radius: radius * scale,
             depth,
         }
     }
@@ -311,7 +337,7 @@ impl SurfaceIndex {
                 barycentric: bary,
                 distance_squared: d2,
             });
-            let r = d2.sqrt() + pad;
+            let r = d2.sqrt() * self.scale + pad;
             best.limit = f32_above(r * r * (1.0 + REL_SLACK));
         }
     }
@@ -323,13 +349,14 @@ impl SurfaceIndex {
         hint: Option<u32>,
         accept: impl Fn(u32) -> bool,
     ) -> Option<ClosestPoint> {
-        if self.bvh.nodes.is_empty() || !p.is_finite() {
+        if self.pairs.is_empty() || !p.is_finite() {
             return None;
         }
-        let local = p - self.center;
+        let local = (p - self.center) * self.scale;
         let q = Vec3A::new(local.x as f32, local.y as f32, local.z as f32);
-        // Distance a box must be allowed to exceed the best distance by: the
-        // rounding of p to f32 (exact in f64) plus f64 rounding in the frame.
+        // Distance (in the local frame) a box must be allowed to exceed the
+        // best distance by: the rounding of p to f32 (exact in f64) plus f64
+        // rounding in the frame and in the triangle routine.
         let pad = (local - q.as_dvec3()).length()
             + ABS_SLACK * (self.radius + local.length())
             + f64::MIN_POSITIVE;
@@ -367,10 +394,10 @@ impl SurfaceIndex {
         pad: f64,
         accept: &impl Fn(u32) -> bool,
     ) {
-        let nodes = &self.bvh.nodes;
+        let pairs = &self.pairs;
         stack[0] = Entry {
             node: 0,
-            d2: box_distance2(nodes[0].aabb(), q),
+            d2: pairs[0].0[0].distance2(q),
         };
         let mut sp = 1usize;
         while sp > 0 {
@@ -379,23 +406,23 @@ impl SurfaceIndex {
             if d2 > best.limit {
                 continue;
             }
-            let node = &nodes[node as usize];
-            if node.prim_count > 0 {
-                let first = node.first_index as usize;
-                for slot in first..first + node.prim_count as usize {
+            let node = &pairs[(node >> 1) as usize].0[(node & 1) as usize];
+            if node.count > 0 {
+                let first = node.index as usize;
+                for slot in first..first + node.count as usize {
                     if accept(self.slot_face[slot]) {
                         self.test_slot(p, slot, best, pad);
                     }
                 }
             } else {
-                let l = node.first_index;
-                let r = l + 1;
-                let dl = box_distance2(nodes[l as usize].aabb(), q);
-                let dr = box_distance2(nodes[r as usize].aabb(), q);
+                let children = &pairs[node.index as usize].0;
+                let dl = children[0].distance2(q);
+                let dr = children[1].distance2(q);
+                let l = node.index << 1;
                 let (near, dn, far, df) = if dl <= dr {
-                    (l, dl, r, dr)
+                    (l, dl, l | 1, dr)
                 } else {
-                    (r, dr, l, dl)
+                    (l | 1, dr, l, dl)
                 };
                 if df <= best.limit {
                     stack[sp] = Entry { node: far, d2: df };
@@ -410,16 +437,83 @@ impl SurfaceIndex {
     }
 }
 
-/// Squared distance from `q` to box `b` in f32 (0 inside).
-#[inline(always)]
-fn box_distance2(b: &Aabb, q: Vec3A) -> f32 {
-    let d = (b.min - q).max(q - b.max).max(Vec3A::ZERO);
-    d.dot(d)
+/// A tree node in 32 bytes: an f32 box and either a leaf's slot range
+/// (`count > 0`) or an inner node's child pair (`count == 0`).
+#[derive(Clone, Copy, Default)]
+#[repr(C, align(32))]
+struct Node {
+    min: [f32; 3],
+    count: u32,
+    max: [f32; 3],
+    /// First slot (leaf) or index of the child pair (inner node).
+    index: u32,
 }
 
-/// PLOC build, SAH reinsertion and leaf collapsing, as obvhs's
-/// `build_bvh2` does, with settings tuned for closest-point queries: small
-/// leaves, since a triangle test in f64 costs a few box tests.
+impl Node {
+    /// Squared f32 distance from `q` to the box (0 inside).
+    #[inline(always)]
+    fn distance2(&self, q: Vec3A) -> f32 {
+        let d = (Vec3A::from_array(self.min) - q)
+            .max(q - Vec3A::from_array(self.max))
+            .max(Vec3A::ZERO);
+        d.dot(d)
+    }
+
+    fn from_aabb(b: &Aabb, count: u32, index: u32) -> Self {
+        Self {
+            min: b.min.to_array(),
+            count,
+            max: b.max.to_array(),
+            index,
+        }
+    }
+}
+
+/// Two siblings in one 64-byte cache line: the traversal always reads both.
+#[derive(Clone, Copy, Default)]
+#[repr(C, align(64))]
+struct NodePair([Node; 2]);
+
+/// Converts obvhs's tree into sibling pairs in depth-first order (a subtree
+/// occupies a contiguous run of memory, and leaves visited together have
+/// adjacent slots). Returns the pairs, the primitive of every slot, and the
+/// depth.
+fn flatten(bvh: &Bvh2) -> (Vec<NodePair>, Vec<u32>, usize) {
+    if bvh.nodes.is_empty() {
+        return (Vec::new(), Vec::new(), 0);
+    }
+    let mut pairs = Vec::with_capacity(bvh.nodes.len() / 2 + 1);
+    let mut slot_prim = Vec::with_capacity(bvh.primitive_indices.len());
+    pairs.push(NodePair::default());
+    // (obvhs node, our node id = pair·2 + side, depth)
+    let mut todo = vec![(0usize, 0u32, 1usize)];
+    let mut depth = 0;
+    while let Some((src, dst, d)) = todo.pop() {
+        depth = depth.max(d);
+        let n = &bvh.nodes[src];
+        let node = if n.is_leaf() {
+            let first = slot_prim.len() as u32;
+            let range = n.first_index as usize..(n.first_index + n.prim_count) as usize;
+            slot_prim.extend_from_slice(&bvh.primitive_indices[range]);
+            Node::from_aabb(n.aabb(), n.prim_count, first)
+        } else {
+            let pair = pairs.len() as u32;
+            pairs.push(NodePair::default());
+            let l = n.first_index as usize;
+            // Right pushed first so the left subtree is laid out next.
+            todo.push((l + 1, (pair << 1) | 1, d + 1));
+            todo.push((l, pair << 1, d + 1));
+            Node::from_aabb(n.aabb(), 0, pair)
+        };
+        pairs[(dst >> 1) as usize].0[(dst & 1) as usize] = node;
+    }
+    (pairs, slot_prim, depth)
+}
+
+/// PLOC build, SAH reinsertion and SAH leaf collapsing, as obvhs's
+/// `build_bvh2` does. Leaves of up to 8 triangles with a traversal cost of
+/// 2 triangle tests measured fastest for closest-point queries (and halve
+/// the node count against one triangle per leaf).
 fn build_tree(boxes: &[Aabb]) -> Bvh2 {
     let indices: Vec<u32> = (0..boxes.len() as u32).collect();
     let mut bvh = PlocBuilder::with_capacity(boxes.len()).build(
@@ -431,27 +525,8 @@ fn build_tree(boxes: &[Aabb]) -> Bvh2 {
     );
     let mut reinsertion = ReinsertionOptimizer::default();
     reinsertion.run(&mut bvh, 0.02, None);
-    collapse(&mut bvh, 4, 1.0);
+    collapse(&mut bvh, 8, 2.0);
     bvh
-}
-
-/// Depth of the tree (number of nodes on the longest root-to-leaf path).
-fn tree_depth(bvh: &Bvh2) -> usize {
-    if bvh.nodes.is_empty() {
-        return 0;
-    }
-    let mut max_depth = 0;
-    let mut todo = vec![(0usize, 1usize)];
-    while let Some((n, d)) = todo.pop() {
-        max_depth = max_depth.max(d);
-        let node = &bvh.nodes[n];
-        if node.prim_count == 0 {
-            let l = node.first_index as usize;
-            todo.push((l, d + 1));
-            todo.push((l + 1, d + 1));
-        }
-    }
-    max_depth
 }
 
 #[cfg(test)]

@@ -1,35 +1,56 @@
 //! Pass 1: split every edge longer than 4/3 of its target length at its
-//! midpoint. A feature edge's new vertex is placed on the input's feature
-//! line, so creases and boundaries are resampled without drifting.
+//! midpoint, longest first (as CGAL does). Longest-first order is Rivara's
+//! longest-edge bisection: on needle-shaped input (CAD tessellations) it
+//! refines without the explosion of new long spokes that index order causes.
+//! A feature edge's new vertex is placed on the input's feature line, so
+//! creases and boundaries are resampled without drifting.
+
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
 
 use super::state::{State, SPLIT_FACTOR};
 use super::RemeshError;
 use crate::mesh::{EdgeId, Handle};
+
+/// How much longer than its split limit edge `e` is (> 1 means split it).
+fn excess(st: &State, e: EdgeId) -> f64 {
+    let [a, b] = st.mesh.edge_vertices(e);
+    let len = st.mesh.position(a).distance(st.mesh.position(b));
+    len / (SPLIT_FACTOR * st.edge_target(a, b))
+}
 
 /// Splits long edges until none is left; returns the number of splits.
 pub(super) fn split_long_edges(
     st: &mut State,
     cancelled: &dyn Fn() -> bool,
 ) -> Result<u64, RemeshError> {
+    // Max-heap on the excess ratio (positive floats order like their bits);
+    // ties go to the lower edge index, so the order is deterministic.
+    let mut heap: BinaryHeap<(u64, Reverse<u32>)> = st
+        .mesh
+        .edges()
+        .filter_map(|e| {
+            let r = excess(st, e);
+            (r > 1.0).then_some((r.to_bits(), Reverse(e.0)))
+        })
+        .collect();
     let mut count = 0u64;
-    let mut i = 0u32;
-    while (i as usize) < st.mesh.edge_capacity() {
+    while let Some((key, Reverse(i))) = heap.pop() {
         let e = EdgeId(i);
         if st.mesh.is_edge_deleted(e) {
-            i += 1;
+            continue;
+        }
+        let r = excess(st, e);
+        if !(r > 1.0) {
+            continue;
+        }
+        if r.to_bits() != key {
+            heap.push((r.to_bits(), Reverse(i)));
             continue;
         }
         let [a, b] = st.mesh.edge_vertices(e);
         let (pa, pb) = (st.mesh.position(a), st.mesh.position(b));
         let len = pa.distance(pb);
-        let limit = SPLIT_FACTOR * st.edge_target(a, b);
-        if len <= limit {
-            i += 1;
-            if i % 4096 == 0 && cancelled() {
-                return Err(RemeshError::Cancelled);
-            }
-            continue;
-        }
         let mid = 0.5 * (pa + pb);
         let (mut p, mut seg) = (mid, 0u32);
         if let Some(line) = st.line_of(e) {
@@ -40,15 +61,27 @@ pub(super) fn split_long_edges(
             };
             let lp = st.features.closest_on_line_near(line, mid, hint);
             seg = lp.segment;
-            // Keep the new vertex well inside the edge; a line that bends
-            // sharply between a and b can pull the closest point to an end.
-            if lp.point.distance(pa) > 0.25 * len && lp.point.distance(pb) > 0.25 * len {
+            // Take the line point only when it lies near the midpoint: a line
+            // that bends sharply between a and b can pull the closest point
+            // toward an end, and coincident parts elsewhere on the same line
+            // must never attract it.
+            if lp.point.distance(mid) <= 0.25 * len {
                 p = lp.point;
             }
         }
-        st.split(e, p, seg);
+        let s = st.split(e, p, seg);
         count += 1;
-        // Re-examine `e` (now the first half) before moving on.
+        for f in [e, s.second_half.edge(), s.spokes[0], s.spokes[1]] {
+            if f.is_valid() {
+                let r = excess(st, f);
+                if r > 1.0 {
+                    heap.push((r.to_bits(), Reverse(f.0)));
+                }
+            }
+        }
+        if count % 4096 == 0 && cancelled() {
+            return Err(RemeshError::Cancelled);
+        }
     }
     Ok(count)
 }

@@ -13,7 +13,11 @@ use isoremesh::remesh::{Observer, Progress, RemeshOptions, Sizing};
 use isoremesh::stats::{self, StatsOptions};
 
 #[derive(Parser)]
-#[command(name = "isoremesh", version, about = "Isotropic remeshing: CLI and HTTP service")]
+#[command(
+    name = "isoremesh",
+    version,
+    about = "Isotropic remeshing: CLI and HTTP service"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -124,7 +128,9 @@ fn stats_command(a: StatsArgs) -> Result<(), Failure> {
     };
     if let Some(l) = a.target_edge_length {
         if !(l.is_finite() && l > 0.0) {
-            return Err(Failure(format!("--target-edge-length must be positive, got {l}")));
+            return Err(Failure(format!(
+                "--target-edge-length must be positive, got {l}"
+            )));
         }
     }
     let s = stats::compute(
@@ -153,7 +159,10 @@ impl Observer for Bar {
     fn progress(&mut self, p: &Progress) {
         if let Some(bar) = &self.0 {
             bar.set_position((p.fraction * 1000.0) as u64);
-            bar.set_message(format!("iteration {}/{} {:?}", p.iteration, p.iterations, p.pass));
+            bar.set_message(format!(
+                "iteration {}/{} {:?}",
+                p.iteration, p.iterations, p.pass
+            ));
         }
     }
 }

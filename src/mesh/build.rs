@@ -201,7 +201,10 @@ fn build(input: &TriMesh) -> Result<(Mesh, RepairReport), BuildError> {
             .map(|(f, t)| {
                 let mut t = *t;
                 t.sort_unstable();
-                (((t[0] as u128) << 64) | ((t[1] as u128) << 32) | t[2] as u128, f as u32)
+                (
+                    ((t[0] as u128) << 64) | ((t[1] as u128) << 32) | t[2] as u128,
+                    f as u32,
+                )
             })
             .collect();
         by_key.par_sort_unstable();

@@ -41,7 +41,7 @@ pub(super) fn split_long_edges(
             continue;
         }
         let r = excess(st, e);
-        if !(r > 1.0) {
+        if r.is_nan() || r <= 1.0 {
             continue;
         }
         if r.to_bits() != key {

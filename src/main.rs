@@ -116,7 +116,57 @@ fn read_file(path: &Path) -> Result<Vec<u8>, Failure> {
 fn load(path: &Path, format: Option<Format>) -> Result<pipeline::LoadedInput, Failure> {
     let bytes = read_file(path)?;
     let name = path.file_name().and_then(|n| n.to_str());
-    pipeline::load(&bytes, name, format, &ReadOptions::default()).map_err(|e| fail(path, e))
+    let mut read = ReadOptions::default();
+    if Format::detect(name, &bytes, format).ok() == Some(Format::Gltf) {
+        read.external_buffers = external_buffers(path, &bytes)?;
+    }
+    pipeline::load(&bytes, name, format, &read).map_err(|e| fail(path, e))
+}
+
+/// The CLI, unlike the library, may read a `.gltf`'s external buffers: plain
+/// relative paths next to the file (no scheme, no absolute path, no `..`).
+fn external_buffers(
+    path: &Path,
+    bytes: &[u8],
+) -> Result<std::collections::HashMap<String, Vec<u8>>, Failure> {
+    let mut out = std::collections::HashMap::new();
+    let Ok(doc) = serde_json::from_slice::<serde_json::Value>(bytes) else {
+        return Ok(out); // the reader reports the parse error
+    };
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let buffers = doc.get("buffers").and_then(|b| b.as_array());
+    for uri in buffers.into_iter().flatten().filter_map(|b| b.get("uri")?.as_str()) {
+        let plain = !uri.starts_with("data:")
+            && !uri.contains("://")
+            && !uri.starts_with('/')
+            && !uri.split(['/', '\\']).any(|c| c == "..");
+        if plain {
+            let decoded = percent_decode(uri);
+            let file = dir.join(&decoded);
+            out.insert(uri.to_string(), read_file(&file)?);
+        }
+    }
+    Ok(out)
+}
+
+/// Decodes `%XX` escapes in a URI path.
+fn percent_decode(s: &str) -> String {
+    let b = s.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        if b[i] == b'%' && i + 2 < b.len() {
+            let hex = |c: u8| (c as char).to_digit(16);
+            if let (Some(h), Some(l)) = (hex(b[i + 1]), hex(b[i + 2])) {
+                out.push((h * 16 + l) as u8);
+                i += 3;
+                continue;
+            }
+        }
+        out.push(b[i]);
+        i += 1;
+    }
+    String::from_utf8_lossy(&out).into_owned()
 }
 
 fn stats_command(a: StatsArgs) -> Result<(), Failure> {

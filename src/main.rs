@@ -261,18 +261,20 @@ fn remesh_command(a: RemeshArgs) -> Result<(), Failure> {
         b
     });
     let mut observer = Bar(bar);
-    let result = pipeline::run(&input, &o, &mut observer).map_err(|e: JobError| fail(&a.input, e));
+    let result =
+        pipeline::remesh_only(&input, &o, &mut observer).map_err(|e: JobError| fail(&a.input, e));
     if let Some(b) = &observer.0 {
         b.finish_and_clear();
     }
-    let result = result?;
-    let bytes = pipeline::encode(&result.mesh, out_format).map_err(|e| fail(&a.output, e))?;
+    let (mesh, out) = result?;
+    let bytes = pipeline::encode(&mesh, out_format).map_err(|e| fail(&a.output, e))?;
     std::fs::write(&a.output, bytes).map_err(|e| fail(&a.output, e))?;
     if let Some(path) = &a.stats {
+        let stats = pipeline::measure(&input, &out, &o);
         let doc = serde_json::json!({
-            "input": result.stats.input,
-            "output": result.stats.output,
-            "report": result.report,
+            "input": stats.input,
+            "output": stats.output,
+            "report": out.report,
         });
         let text = serde_json::to_vec_pretty(&doc).map_err(|e| Failure(e.to_string()))?;
         std::fs::write(path, text).map_err(|e| fail(path, e))?;

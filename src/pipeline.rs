@@ -84,7 +84,40 @@ pub fn run(
     options: &RemeshOptions,
     observer: &mut impl Observer,
 ) -> Result<JobOutput, JobError> {
+    let (mesh, out) = remesh_only(input, options, observer)?;
+    let stats = measure(input, &out, options);
+    Ok(JobOutput {
+        mesh,
+        stats,
+        report: out.report,
+    })
+}
+
+/// Remeshes a loaded input without measuring it; returns the output with
+/// normals split along its feature edges, and the engine's output.
+pub fn remesh_only(
+    input: &LoadedInput,
+    options: &RemeshOptions,
+    observer: &mut impl Observer,
+) -> Result<(TriMesh, remesh::RemeshOutput), JobError> {
     let out = remesh::remesh(&input.mesh, options, observer)?;
+    let output_tm = out.mesh.to_trimesh();
+    let features: Vec<[u32; 2]> = out
+        .mesh
+        .edges()
+        .filter(|&e| out.mesh.edge_has_flag(e, EDGE_FEATURE))
+        .map(|e| {
+            let [a, b] = out.mesh.edge_vertices(e);
+            [a.0, b.0]
+        })
+        .collect();
+    let mesh = io::with_split_normals(&output_tm, options.feature_angle, &features);
+    Ok((mesh, out))
+}
+
+/// Input and output statistics of a finished remesh: the input against the
+/// job's target length, the output with its distance to the input.
+pub fn measure(input: &LoadedInput, out: &remesh::RemeshOutput, options: &RemeshOptions) -> JobStats {
     let input_tm = input.mesh.to_trimesh();
     let output_tm = out.mesh.to_trimesh();
     let adaptive = options.sizing == remesh::Sizing::Adaptive;
@@ -109,24 +142,10 @@ pub fn run(
             ..Default::default()
         },
     );
-    let features: Vec<[u32; 2]> = out
-        .mesh
-        .edges()
-        .filter(|&e| out.mesh.edge_has_flag(e, EDGE_FEATURE))
-        .map(|e| {
-            let [a, b] = out.mesh.edge_vertices(e);
-            [a.0, b.0]
-        })
-        .collect();
-    let mesh = io::with_split_normals(&output_tm, options.feature_angle, &features);
-    Ok(JobOutput {
-        mesh,
-        stats: JobStats {
-            input: input_stats,
-            output: output_stats,
-        },
-        report: out.report,
-    })
+    JobStats {
+        input: input_stats,
+        output: output_stats,
+    }
 }
 
 /// Encodes a result mesh in `format`, with normals.

@@ -40,7 +40,10 @@ pub(super) fn flip_edges(st: &mut State, cancelled: &dyn Fn() -> bool) -> Result
                 return Err(RemeshError::Cancelled);
             }
             let e = EdgeId(i);
-            if st.mesh.is_edge_deleted(e) || st.line_of(e).is_some() || !st.mesh.can_flip(e) {
+            if st.mesh.is_edge_deleted(e)
+                || st.line_of(e).is_some()
+                || st.mesh.is_boundary_edge(e)
+            {
                 continue;
             }
             let m = &st.mesh;
@@ -67,7 +70,7 @@ pub(super) fn flip_edges(st: &mut State, cancelled: &dyn Fn() -> bool) -> Result
             if !valence_gain && !improves_delaunay(old) {
                 continue;
             }
-            if !geometry_ok(old, new) {
+            if !geometry_ok(old, new) || !m.can_flip(e) {
                 continue;
             }
             st.mesh.flip_edge(e);

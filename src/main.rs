@@ -135,7 +135,11 @@ fn external_buffers(
     };
     let dir = path.parent().unwrap_or(Path::new("."));
     let buffers = doc.get("buffers").and_then(|b| b.as_array());
-    for uri in buffers.into_iter().flatten().filter_map(|b| b.get("uri")?.as_str()) {
+    for uri in buffers
+        .into_iter()
+        .flatten()
+        .filter_map(|b| b.get("uri")?.as_str())
+    {
         let plain = !uri.starts_with("data:")
             && !uri.contains("://")
             && !uri.starts_with('/')

@@ -117,7 +117,11 @@ pub fn remesh_only(
 
 /// Input and output statistics of a finished remesh: the input against the
 /// job's target length, the output with its distance to the input.
-pub fn measure(input: &LoadedInput, out: &remesh::RemeshOutput, options: &RemeshOptions) -> JobStats {
+pub fn measure(
+    input: &LoadedInput,
+    out: &remesh::RemeshOutput,
+    options: &RemeshOptions,
+) -> JobStats {
     let input_tm = input.mesh.to_trimesh();
     let output_tm = out.mesh.to_trimesh();
     let adaptive = options.sizing == remesh::Sizing::Adaptive;

@@ -19,7 +19,7 @@ const MAX_DIHEDRAL_COS: f64 = 0.939_692_620_785_908_4;
 /// A valence flip may not create a face worse than this unless the old pair was already worse.
 const MIN_QUALITY: f64 = 0.3;
 /// Sweeps over the edges per pass at most.
-const MAX_SWEEPS: usize = 4;
+const MAX_SWEEPS: usize = 6;
 
 /// Flips edges; returns the number of flips.
 pub(super) fn flip_edges(st: &mut State, cancelled: &dyn Fn() -> bool) -> Result<u64, RemeshError> {
@@ -33,16 +33,19 @@ pub(super) fn flip_edges(st: &mut State, cancelled: &dyn Fn() -> bool) -> Result
         }
     }
     let mut count = 0u64;
+    // The first sweep visits every edge; later sweeps only the edges around
+    // the quads that changed, in index order (deterministic).
+    let mut work: Vec<u32> = (0..st.mesh.edge_capacity() as u32).collect();
+    let mut queued = vec![false; st.mesh.edge_capacity()];
     for _ in 0..MAX_SWEEPS {
         let mut flipped = 0u64;
-        for i in 0..st.mesh.edge_capacity() as u32 {
-            if i % 4096 == 0 && cancelled() {
+        let mut next: Vec<u32> = Vec::new();
+        for (k, &i) in work.iter().enumerate() {
+            if k % 4096 == 0 && cancelled() {
                 return Err(RemeshError::Cancelled);
             }
             let e = EdgeId(i);
-            if st.mesh.is_edge_deleted(e)
-                || st.line_of(e).is_some()
-                || st.mesh.is_boundary_edge(e)
+            if st.mesh.is_edge_deleted(e) || st.line_of(e).is_some() || st.mesh.is_boundary_edge(e)
             {
                 continue;
             }
@@ -73,7 +76,15 @@ pub(super) fn flip_edges(st: &mut State, cancelled: &dyn Fn() -> bool) -> Result
             if !geometry_ok(old, new) || !m.can_flip(e) {
                 continue;
             }
+            let ring = [m.next(h), m.prev(h), m.next(o), m.prev(o)];
             st.mesh.flip_edge(e);
+            for g in ring {
+                let j = g.edge().idx();
+                if !queued[j] {
+                    queued[j] = true;
+                    next.push(j as u32);
+                }
+            }
             valence[a.idx()] -= 1;
             valence[b.idx()] -= 1;
             valence[c.idx()] += 1;
@@ -84,6 +95,11 @@ pub(super) fn flip_edges(st: &mut State, cancelled: &dyn Fn() -> bool) -> Result
         if flipped == 0 {
             break;
         }
+        next.sort_unstable();
+        for &j in &next {
+            queued[j as usize] = false;
+        }
+        work = next;
     }
     Ok(count)
 }

@@ -18,6 +18,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::state::{State, CORNER, SMOOTH};
+use crate::bvh::{closest_point_on_triangle, ClosestPoint};
 use crate::geometry::{triangle_cross, triangle_quality};
 use crate::mesh::{FaceId, Handle, VertexId};
 
@@ -118,6 +119,8 @@ pub(super) fn project_to_input(st: &mut State) -> u64 {
     let hint_face = &st.hint_face;
     let hint_seg = &st.hint_seg;
     let input = &st.input;
+    let size = &st.size;
+    let st_ref: &State = st;
     let results: Vec<Projected> = st.pool.install(|| {
         (0..m.vertex_capacity() as u32)
             .into_par_iter()
@@ -130,7 +133,7 @@ pub(super) fn project_to_input(st: &mut State) -> u64 {
                 }
                 match kind[v.idx()] {
                     CORNER => (p, hf, hs, None),
-                    SMOOTH => match index.closest_point_with_hint(p, hf) {
+                    SMOOTH => match walk_closest(st_ref, p, hf, size[i as usize]) {
                         Some(cp) => (cp.point, cp.face, hs, Some((cp.face, cp.barycentric))),
                         None => (p, hf, hs, None),
                     },
@@ -160,6 +163,60 @@ pub(super) fn project_to_input(st: &mut State) -> u64 {
         }
     }
     guarded_move(st, &targets, true)
+}
+
+/// Closest point on the input from a hint face: walk across the faces around
+/// the current best face while that gets closer (vertices move little
+/// between steps, so this usually ends in one or two rounds), and fall back
+/// to the global BVH query, bounded by the walk's result, when the point is
+/// not close to the surface relative to the local target size or the walk
+/// does not settle.
+fn walk_closest(st: &State, p: DVec3, hint: u32, size: f64) -> Option<ClosestPoint> {
+    let tris = st.index.triangles();
+    let pos = st.index.positions();
+    if hint as usize >= tris.len() {
+        return st.index.closest_point(p);
+    }
+    let eval = |f: u32| {
+        let [a, b, c] = tris[f as usize];
+        let (q, bary) =
+            closest_point_on_triangle(p, pos[a as usize], pos[b as usize], pos[c as usize]);
+        (q.distance_squared(p), q, bary)
+    };
+    let (mut best_d, mut best_q, mut best_b) = eval(hint);
+    let mut best_f = hint;
+    let mut settled = false;
+    for _ in 0..8 {
+        let f = best_f;
+        for &v in &tris[f as usize] {
+            let (s, e) = (
+                st.vertex_face_start[v as usize] as usize,
+                st.vertex_face_start[v as usize + 1] as usize,
+            );
+            for &g in &st.vertex_faces[s..e] {
+                if g == f {
+                    continue;
+                }
+                let (d, q, b) = eval(g);
+                if d < best_d || (d == best_d && g < best_f) {
+                    (best_d, best_q, best_b, best_f) = (d, q, b, g);
+                }
+            }
+        }
+        if best_f == f {
+            settled = true;
+            break;
+        }
+    }
+    if settled && best_d.is_finite() && best_d <= (0.25 * size) * (0.25 * size) {
+        return Some(ClosestPoint {
+            face: best_f,
+            point: best_q,
+            barycentric: best_b,
+            distance_squared: best_d,
+        });
+    }
+    st.index.closest_point_with_hint(p, best_f)
 }
 
 /// Moves every vertex toward `targets`, halving moves that break a face (see

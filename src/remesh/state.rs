@@ -46,6 +46,10 @@ pub(super) struct State {
     pub edge_line: Vec<u32>,
     /// Per input face: unit normal.
     pub input_normals: Vec<DVec3>,
+    /// Faces around each input vertex (CSR offsets into `vertex_faces`).
+    pub vertex_face_start: Vec<u32>,
+    /// Faces around each input vertex, grouped by vertex.
+    pub vertex_faces: Vec<u32>,
     /// The worker pool of the parallel passes.
     pub pool: std::sync::Arc<rayon::ThreadPool>,
 }
@@ -63,6 +67,8 @@ pub(super) struct PartialState {
     size: Vec<f64>,
     edge_line: Vec<u32>,
     input_normals: Vec<DVec3>,
+    vertex_face_start: Vec<u32>,
+    vertex_faces: Vec<u32>,
 }
 
 impl State {
@@ -84,6 +90,8 @@ impl State {
             size: p.size,
             edge_line: p.edge_line,
             input_normals: p.input_normals,
+            vertex_face_start: p.vertex_face_start,
+            vertex_faces: p.vertex_faces,
             pool: std::sync::Arc::new(pool),
         })
     }
@@ -174,7 +182,10 @@ impl State {
             .into_par_iter()
             .map(|f| index.face_normal(f))
             .collect();
+        let (vertex_face_start, vertex_faces) = vertex_face_csr(&tm);
         Ok(PartialState {
+            vertex_face_start,
+            vertex_faces,
             mesh,
             input: tm,
             index,
@@ -259,6 +270,29 @@ impl State {
         }
         (self.mesh, sizes)
     }
+}
+
+/// Faces around each vertex of `tm`, in compressed rows.
+fn vertex_face_csr(tm: &TriMesh) -> (Vec<u32>, Vec<u32>) {
+    let n = tm.positions.len();
+    let mut start = vec![0u32; n + 1];
+    for t in &tm.triangles {
+        for &v in t {
+            start[v as usize + 1] += 1;
+        }
+    }
+    for i in 0..n {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut faces = vec![0u32; start[n] as usize];
+    for (f, t) in tm.triangles.iter().enumerate() {
+        for &v in t {
+            faces[fill[v as usize] as usize] = f as u32;
+            fill[v as usize] += 1;
+        }
+    }
+    (start, faces)
 }
 
 fn uniform_target(mesh: &Mesh, tm: &TriMesh, o: &RemeshOptions, diag: f64, area: f64) -> f64 {

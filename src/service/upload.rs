@@ -44,9 +44,17 @@ fn too_large(limit: u64) -> Problem {
     .with_field("body")
 }
 
-/// Reads the whole body, failing past `limit` bytes.
+/// How much of an oversized body is still read (and discarded) before the
+/// 413 is sent. A server that answers and closes while the client is still
+/// writing makes many clients report a broken pipe instead of the answer;
+/// draining a bounded tail lets them read the problem document.
+const LINGER_BYTES: u64 = 1 << 20;
+
+/// Reads the whole body, failing past `limit` bytes (after draining up to
+/// [`LINGER_BYTES`] more).
 async fn read_limited(mut body: Body, limit: u64) -> Result<Bytes, Problem> {
     let mut buf: Vec<u8> = Vec::new();
+    let mut seen: u64 = 0;
     while let Some(frame) = body.frame().await {
         let frame = frame.map_err(|e| {
             Problem::new(
@@ -55,11 +63,19 @@ async fn read_limited(mut body: Body, limit: u64) -> Result<Bytes, Problem> {
             )
         })?;
         if let Ok(data) = frame.into_data() {
-            if (buf.len() + data.len()) as u64 > limit {
-                return Err(too_large(limit));
+            seen += data.len() as u64;
+            if seen > limit + LINGER_BYTES {
+                break;
             }
-            buf.extend_from_slice(&data);
+            if seen <= limit {
+                buf.extend_from_slice(&data);
+            } else {
+                buf = Vec::new();
+            }
         }
+    }
+    if seen > limit {
+        return Err(too_large(limit));
     }
     Ok(Bytes::from(buf))
 }
@@ -76,7 +92,7 @@ pub async fn read_upload(req: Request, cfg: &ServiceConfig) -> Result<Upload, Pr
         .get(header::CONTENT_LENGTH)
         .and_then(|v| v.to_str().ok())
         .and_then(|v| v.parse::<u64>().ok());
-    if declared.is_some_and(|n| n > cfg.max_body_bytes) {
+    if declared.is_some_and(|n| n > cfg.max_body_bytes + LINGER_BYTES) {
         return Err(too_large(cfg.max_body_bytes));
     }
     let bytes = tokio::time::timeout(cfg.upload_timeout(), read_limited(body, cfg.max_body_bytes))

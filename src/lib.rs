@@ -18,6 +18,7 @@
 //! | [`pipeline`] | a whole job on bytes: detect, read, repair, remesh, measure, encode |
 //! | [`shapes`] | icosphere, torus, cylinder, cube and other shapes generated in code |
 //! | [`sizing`] | the adaptive sizing field: target edge lengths from a tolerance, clamped and gradation-limited |
+//! | `service` | (feature `service`) the HTTP service: upload validation, durable job queue on blocking workers, results, metrics |
 //!
 //! The geometry core above is pure and synchronous: no async runtime and no
 //! filesystem access. The `service` feature adds the HTTP layer on top.
@@ -30,6 +31,8 @@ pub mod io;
 pub mod mesh;
 pub mod pipeline;
 pub mod remesh;
+#[cfg(feature = "service")]
+pub mod service;
 pub mod shapes;
 pub mod sizing;
 pub mod stats;

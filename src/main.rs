@@ -13,7 +13,11 @@ use isoremesh::remesh::{Observer, Progress, RemeshOptions, Sizing};
 use isoremesh::stats::{self, StatsOptions};
 
 #[derive(Parser)]
-#[command(name = "isoremesh", version, about = "Isotropic remeshing: CLI and HTTP service")]
+#[command(
+    name = "isoremesh",
+    version,
+    about = "Isotropic remeshing: CLI and HTTP service"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -25,6 +29,9 @@ enum Command {
     Stats(StatsArgs),
     /// Remesh a file toward a target edge length.
     Remesh(Box<RemeshArgs>),
+    /// Run the HTTP service (see the README's "Service" section).
+    #[cfg(feature = "service")]
+    Serve(Box<isoremesh::service::ServiceConfig>),
 }
 
 #[derive(Args)]
@@ -69,24 +76,33 @@ struct RemeshArgs {
     /// Dihedral angle in degrees above which an edge is a sharp feature (default 45).
     #[arg(long)]
     feature_angle: Option<f64>,
-    /// Do not keep sharp creases and corners (boundaries are always kept).
+    /// Keep sharp creases and corners (default true; boundaries are always kept).
+    #[arg(long, conflicts_with = "no_features")]
+    preserve_features: Option<bool>,
+    /// Same as `--preserve-features false`.
     #[arg(long)]
     no_features: bool,
-    /// Adaptive sizing from an approximation tolerance.
+    /// `uniform` (default) or `adaptive` sizing from an approximation tolerance.
+    #[arg(long, value_parser = parse_sizing, conflicts_with = "adaptive")]
+    sizing: Option<Sizing>,
+    /// Same as `--sizing adaptive`.
     #[arg(long)]
     adaptive: bool,
     /// Adaptive sizing: absolute tolerance (default 0.1 % of the diagonal).
-    #[arg(long, requires = "adaptive")]
+    #[arg(long)]
     tolerance: Option<f64>,
     /// Adaptive sizing: smallest target length.
-    #[arg(long, requires = "adaptive")]
+    #[arg(long)]
     min_edge_length: Option<f64>,
     /// Adaptive sizing: largest target length.
-    #[arg(long, requires = "adaptive")]
+    #[arg(long)]
     max_edge_length: Option<f64>,
     /// Adaptive sizing: gradation g in h(v) <= h(u) + g |uv|.
-    #[arg(long, requires = "adaptive")]
+    #[arg(long)]
     gradation: Option<f64>,
+    /// Output format (default: from OUTPUT's extension).
+    #[arg(long)]
+    output_format: Option<Format>,
     /// Worker threads (default: all cores). The output does not depend on it.
     #[arg(long)]
     threads: Option<usize>,
@@ -96,6 +112,11 @@ struct RemeshArgs {
     /// Override the format detection of INPUT.
     #[arg(long)]
     format: Option<Format>,
+}
+
+fn parse_sizing(s: &str) -> Result<Sizing, String> {
+    serde_json::from_value(serde_json::Value::String(s.to_ascii_lowercase()))
+        .map_err(|_| format!("{s:?} is not a sizing; use uniform or adaptive"))
 }
 
 /// A failure, already phrased as the one line the user sees.
@@ -124,7 +145,9 @@ fn stats_command(a: StatsArgs) -> Result<(), Failure> {
     };
     if let Some(l) = a.target_edge_length {
         if !(l.is_finite() && l > 0.0) {
-            return Err(Failure(format!("--target-edge-length must be positive, got {l}")));
+            return Err(Failure(format!(
+                "--target-edge-length must be positive, got {l}"
+            )));
         }
     }
     let s = stats::compute(
@@ -153,24 +176,33 @@ impl Observer for Bar {
     fn progress(&mut self, p: &Progress) {
         if let Some(bar) = &self.0 {
             bar.set_position((p.fraction * 1000.0) as u64);
-            bar.set_message(format!("iteration {}/{} {:?}", p.iteration, p.iterations, p.pass));
+            bar.set_message(format!(
+                "iteration {}/{} {:?}",
+                p.iteration, p.iterations, p.pass
+            ));
         }
     }
 }
 
 fn remesh_command(a: RemeshArgs) -> Result<(), Failure> {
-    let out_format = Format::from_extension(&a.output.to_string_lossy()).ok_or_else(|| {
-        fail(
-            &a.output,
-            "unknown output format: use .obj, .gltf, .glb, .stl, .ply or .off",
-        )
-    })?;
+    let out_format = match a.output_format {
+        Some(f) => f,
+        None => Format::from_extension(&a.output.to_string_lossy()).ok_or_else(|| {
+            fail(
+                &a.output,
+                "unknown output format: use .obj, .gltf, .glb, .stl, .ply or .off, or --output-format",
+            )
+        })?,
+    };
     let mut o = RemeshOptions {
         target_edge_length: a.target_edge_length,
         target_edge_ratio: a.target_edge_ratio,
         target_faces: a.target_faces,
-        preserve_features: !a.no_features,
+        preserve_features: a.preserve_features.unwrap_or(!a.no_features),
         threads: a.threads,
+        tolerance: a.tolerance,
+        min_edge_length: a.min_edge_length,
+        max_edge_length: a.max_edge_length,
         ..Default::default()
     };
     if let Some(n) = a.iterations {
@@ -182,14 +214,14 @@ fn remesh_command(a: RemeshArgs) -> Result<(), Failure> {
     if let Some(d) = a.feature_angle {
         o.feature_angle = d;
     }
+    if let Some(s) = a.sizing {
+        o.sizing = s;
+    }
     if a.adaptive {
         o.sizing = Sizing::Adaptive;
-        o.tolerance = a.tolerance;
-        o.min_edge_length = a.min_edge_length;
-        o.max_edge_length = a.max_edge_length;
-        if let Some(g) = a.gradation {
-            o.gradation = g;
-        }
+    }
+    if let Some(g) = a.gradation {
+        o.gradation = g;
     }
     o.validate().map_err(|e| Failure(e.to_string()))?;
     let input = load(&a.input, a.format)?;
@@ -221,11 +253,64 @@ fn remesh_command(a: RemeshArgs) -> Result<(), Failure> {
     Ok(())
 }
 
+#[cfg(feature = "service")]
+fn serve_command(config: isoremesh::service::ServiceConfig) -> Result<(), Failure> {
+    isoremesh::service::telemetry::init(config.log_json);
+    config.validate().map_err(|e| Failure(e.to_string()))?;
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .thread_name("isoremesh-http")
+        .build()
+        .map_err(|e| Failure(format!("cannot start the async runtime: {e}")))?;
+    rt.block_on(async move {
+        let listener = tokio::net::TcpListener::bind(config.listen)
+            .await
+            .map_err(|e| Failure(format!("cannot listen on {}: {e}", config.listen)))?;
+        let addr = listener
+            .local_addr()
+            .map_err(|e| Failure(format!("cannot read the bound address: {e}")))?;
+        tracing::info!(%addr, "listening on http://{addr}");
+        isoremesh::service::run(listener, config, shutdown_signal())
+            .await
+            .map_err(|e| Failure(e.to_string()))
+    })?;
+    tracing::info!("stopped");
+    Ok(())
+}
+
+/// Completes on Ctrl-C or, on Unix, SIGTERM.
+#[cfg(feature = "service")]
+async fn shutdown_signal() {
+    let ctrl_c = async {
+        if tokio::signal::ctrl_c().await.is_err() {
+            std::future::pending::<()>().await;
+        }
+    };
+    #[cfg(unix)]
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    #[cfg(not(unix))]
+    let term = std::future::pending::<()>();
+    tokio::select! {
+        _ = ctrl_c => {},
+        _ = term => {},
+    }
+    tracing::info!("shutdown signal received");
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Stats(a) => stats_command(a),
         Command::Remesh(a) => remesh_command(*a),
+        #[cfg(feature = "service")]
+        Command::Serve(c) => serve_command(*c),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

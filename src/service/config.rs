@@ -1,0 +1,169 @@
+//! The service's configuration: every knob is a `serve` flag with a matching
+//! `ISOREMESH_*` environment variable (clap's `env`), documented with its
+//! default in the README's "Service" section. Limits are resolved and checked
+//! once here, so the rest of the service reads plain numbers.
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::time::Duration;
+
+/// Default listen address.
+pub const DEFAULT_LISTEN: &str = "127.0.0.1:8080";
+/// Default data directory.
+pub const DEFAULT_DATA_DIR: &str = "./data";
+/// Default number of queued jobs waiting for a worker.
+pub const DEFAULT_QUEUE_CAPACITY: usize = 64;
+/// Default largest request body: 256 MiB.
+pub const DEFAULT_MAX_BODY_BYTES: u64 = 256 << 20;
+/// Default deadline for receiving a whole upload.
+pub const DEFAULT_UPLOAD_TIMEOUT_SECS: u64 = 300;
+/// Default largest input, in triangles as read.
+pub const DEFAULT_MAX_INPUT_TRIANGLES: u64 = 20_000_000;
+/// Default largest estimated output, in triangles.
+pub const DEFAULT_MAX_OUTPUT_TRIANGLES: u64 = 20_000_000;
+/// Default wall-time limit of one job.
+pub const DEFAULT_JOB_TIMEOUT_SECS: u64 = 3600;
+/// Default lifetime of a finished job and its result.
+pub const DEFAULT_RESULT_TTL_SECS: u64 = 86_400;
+/// Default time running jobs get to finish at shutdown.
+pub const DEFAULT_SHUTDOWN_GRACE_SECS: u64 = 30;
+
+/// Flags of `isoremesh serve`, each with an `ISOREMESH_*` environment variable.
+#[derive(Clone, Debug, clap::Args)]
+pub struct ServiceConfig {
+    /// Address to listen on.
+    #[arg(long, env = "ISOREMESH_LISTEN", default_value = DEFAULT_LISTEN)]
+    pub listen: SocketAddr,
+    /// Directory for uploads, job records and results (created if missing).
+    #[arg(long, env = "ISOREMESH_DATA_DIR", default_value = DEFAULT_DATA_DIR)]
+    pub data_dir: PathBuf,
+    /// Jobs remeshed at the same time (default: the number of cores).
+    #[arg(long, env = "ISOREMESH_WORKERS")]
+    pub workers: Option<usize>,
+    /// Jobs that may wait for a worker; beyond it submissions get 503.
+    #[arg(long, env = "ISOREMESH_QUEUE_CAPACITY", default_value_t = DEFAULT_QUEUE_CAPACITY)]
+    pub queue_capacity: usize,
+    /// Largest request body in bytes; larger uploads get 413.
+    #[arg(long, env = "ISOREMESH_MAX_BODY_BYTES", default_value_t = DEFAULT_MAX_BODY_BYTES)]
+    pub max_body_bytes: u64,
+    /// Deadline in seconds for receiving a whole upload; slower uploads get 408.
+    #[arg(long, env = "ISOREMESH_UPLOAD_TIMEOUT_SECS", default_value_t = DEFAULT_UPLOAD_TIMEOUT_SECS)]
+    pub upload_timeout_secs: u64,
+    /// Largest input mesh in triangles; larger inputs get 413.
+    #[arg(long, env = "ISOREMESH_MAX_INPUT_TRIANGLES", default_value_t = DEFAULT_MAX_INPUT_TRIANGLES)]
+    pub max_input_triangles: u64,
+    /// Largest estimated output in triangles; larger estimates get 422.
+    #[arg(long, env = "ISOREMESH_MAX_OUTPUT_TRIANGLES", default_value_t = DEFAULT_MAX_OUTPUT_TRIANGLES)]
+    pub max_output_triangles: u64,
+    /// Wall-time limit of one job in seconds; a job past it fails.
+    #[arg(long, env = "ISOREMESH_JOB_TIMEOUT_SECS", default_value_t = DEFAULT_JOB_TIMEOUT_SECS)]
+    pub job_timeout_secs: u64,
+    /// Seconds a finished job and its result are kept before they expire.
+    #[arg(long, env = "ISOREMESH_RESULT_TTL_SECS", default_value_t = DEFAULT_RESULT_TTL_SECS)]
+    pub result_ttl_secs: u64,
+    /// Seconds running jobs get to finish on SIGTERM/Ctrl-C before they are
+    /// stopped and kept queued for the next start.
+    #[arg(long, env = "ISOREMESH_SHUTDOWN_GRACE_SECS", default_value_t = DEFAULT_SHUTDOWN_GRACE_SECS)]
+    pub shutdown_grace_secs: u64,
+    /// Log as JSON lines instead of human-readable text.
+    #[arg(long, env = "ISOREMESH_LOG_JSON")]
+    pub log_json: bool,
+}
+
+/// A configuration value out of range.
+#[derive(Debug, thiserror::Error)]
+#[error("invalid configuration `{field}`: {message}")]
+pub struct ConfigError {
+    /// The flag, by its long name.
+    pub field: &'static str,
+    /// What is wrong.
+    pub message: String,
+}
+
+impl ServiceConfig {
+    /// The defaults with the given data directory and an ephemeral port on
+    /// loopback; what tests and embedders start from.
+    pub fn for_data_dir(data_dir: impl Into<PathBuf>) -> Self {
+        Self {
+            listen: SocketAddr::from(([127, 0, 0, 1], 0)),
+            data_dir: data_dir.into(),
+            workers: None,
+            queue_capacity: DEFAULT_QUEUE_CAPACITY,
+            max_body_bytes: DEFAULT_MAX_BODY_BYTES,
+            upload_timeout_secs: DEFAULT_UPLOAD_TIMEOUT_SECS,
+            max_input_triangles: DEFAULT_MAX_INPUT_TRIANGLES,
+            max_output_triangles: DEFAULT_MAX_OUTPUT_TRIANGLES,
+            job_timeout_secs: DEFAULT_JOB_TIMEOUT_SECS,
+            result_ttl_secs: DEFAULT_RESULT_TTL_SECS,
+            shutdown_grace_secs: DEFAULT_SHUTDOWN_GRACE_SECS,
+            log_json: false,
+        }
+    }
+
+    /// Checks every limit; the error names the flag.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let bad = |field, message: &str| {
+            Err(ConfigError {
+                field,
+                message: message.to_string(),
+            })
+        };
+        if self.workers == Some(0) || self.workers.is_some_and(|w| w > 1024) {
+            return bad("workers", "must be between 1 and 1024");
+        }
+        if self.queue_capacity == 0 {
+            return bad("queue-capacity", "must be at least 1");
+        }
+        if self.max_body_bytes == 0 || usize::try_from(self.max_body_bytes).is_err() {
+            return bad("max-body-bytes", "must be positive and fit in memory");
+        }
+        if self.upload_timeout_secs == 0 {
+            return bad("upload-timeout-secs", "must be at least 1");
+        }
+        if self.max_input_triangles == 0 {
+            return bad("max-input-triangles", "must be at least 1");
+        }
+        if self.max_output_triangles == 0 {
+            return bad("max-output-triangles", "must be at least 1");
+        }
+        if self.job_timeout_secs == 0 {
+            return bad("job-timeout-secs", "must be at least 1");
+        }
+        if self.result_ttl_secs == 0 {
+            return bad("result-ttl-secs", "must be at least 1");
+        }
+        Ok(())
+    }
+
+    /// Worker count: the flag, or the number of cores.
+    pub fn worker_count(&self) -> usize {
+        self.workers.unwrap_or_else(cores)
+    }
+
+    /// Rayon threads each job may use, so that all workers together use
+    /// about the machine's cores instead of each job taking all of them.
+    pub fn threads_per_job(&self) -> usize {
+        (cores() / self.worker_count().max(1)).max(1)
+    }
+
+    /// The upload deadline.
+    pub fn upload_timeout(&self) -> Duration {
+        Duration::from_secs(self.upload_timeout_secs)
+    }
+
+    /// The per-job wall-time limit.
+    pub fn job_timeout(&self) -> Duration {
+        Duration::from_secs(self.job_timeout_secs)
+    }
+
+    /// The shutdown grace period.
+    pub fn shutdown_grace(&self) -> Duration {
+        Duration::from_secs(self.shutdown_grace_secs)
+    }
+}
+
+fn cores() -> usize {
+    std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1)
+}

@@ -1,0 +1,333 @@
+//! Job parameters as callers send them: the same thirteen names in the
+//! `params` multipart part (JSON), the query string of a raw-body upload and
+//! the CLI's long flags. They convert into [`RemeshOptions`], never the
+//! reverse; an unknown name, a mistyped value or an option the engine rejects
+//! is a 422 naming the field. The output estimate that guards memory,
+//! area / (√3/4 · L²), is checked here before a job is queued.
+
+use serde::{Deserialize, Serialize};
+use serde_json::{Map, Value};
+
+use super::problem::{Problem, ProblemKind};
+use crate::io::Format;
+use crate::remesh::{RemeshOptions, Sizing};
+use crate::sizing::{DEFAULT_MIN_EDGE_FACTOR, DEFAULT_RELATIVE_TOLERANCE};
+
+/// Every accepted parameter name.
+pub const PARAM_NAMES: [&str; 13] = [
+    "target_edge_length",
+    "target_edge_ratio",
+    "target_faces",
+    "iterations",
+    "relaxation_steps",
+    "preserve_features",
+    "feature_angle",
+    "sizing",
+    "tolerance",
+    "min_edge_length",
+    "max_edge_length",
+    "gradation",
+    "output_format",
+];
+
+/// The normalised parameters of a job: defaults filled in and, once the
+/// input is read, `output_format` resolved to the input's format if absent.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct JobParams {
+    /// Absolute target edge length.
+    pub target_edge_length: Option<f64>,
+    /// Target edge length as a fraction of the bounding-box diagonal.
+    pub target_edge_ratio: Option<f64>,
+    /// Approximate output face count.
+    pub target_faces: Option<u64>,
+    /// Outer iterations.
+    pub iterations: u32,
+    /// Relaxation + projection steps per iteration.
+    pub relaxation_steps: u32,
+    /// Keep sharp creases and corners.
+    pub preserve_features: bool,
+    /// Dihedral angle in degrees above which an edge is sharp.
+    pub feature_angle: f64,
+    /// `uniform` or `adaptive`.
+    pub sizing: Sizing,
+    /// Adaptive sizing: absolute tolerance.
+    pub tolerance: Option<f64>,
+    /// Adaptive sizing: smallest target length.
+    pub min_edge_length: Option<f64>,
+    /// Adaptive sizing: largest target length.
+    pub max_edge_length: Option<f64>,
+    /// Adaptive sizing: gradation.
+    pub gradation: f64,
+    /// Output format (default: the input's).
+    pub output_format: Option<Format>,
+}
+
+impl Default for JobParams {
+    fn default() -> Self {
+        let o = RemeshOptions::default();
+        Self {
+            target_edge_length: None,
+            target_edge_ratio: None,
+            target_faces: None,
+            iterations: o.iterations,
+            relaxation_steps: o.relaxation_steps,
+            preserve_features: o.preserve_features,
+            feature_angle: o.feature_angle,
+            sizing: o.sizing,
+            tolerance: None,
+            min_edge_length: None,
+            max_edge_length: None,
+            gradation: o.gradation,
+            output_format: None,
+        }
+    }
+}
+
+fn bad(field: &str, message: impl std::fmt::Display) -> Problem {
+    Problem::new(ProblemKind::InvalidParameter, format!("{field}: {message}")).with_field(field)
+}
+
+fn typed<T: serde::de::DeserializeOwned>(field: &str, v: &Value) -> Result<T, Problem> {
+    T::deserialize(v).map_err(|e| bad(field, e))
+}
+
+impl JobParams {
+    /// Parameters from a JSON object (the `params` part). `null` means "use
+    /// the default".
+    pub fn from_json(v: &Value) -> Result<Self, Problem> {
+        match v {
+            Value::Object(map) => Self::from_map(map),
+            _ => Err(Problem::new(
+                ProblemKind::InvalidParameter,
+                "params must be a JSON object",
+            )
+            .with_field("params")),
+        }
+    }
+
+    /// Parameters from `name=value` pairs (the query string). Numbers and
+    /// booleans are read as JSON; anything else is a string.
+    pub fn from_query(pairs: &[(String, String)]) -> Result<Self, Problem> {
+        let mut map = Map::new();
+        for (k, raw) in pairs {
+            let v = match serde_json::from_str::<Value>(raw) {
+                Ok(v @ (Value::Number(_) | Value::Bool(_) | Value::Null)) => v,
+                _ => Value::String(raw.clone()),
+            };
+            if map.insert(k.clone(), v).is_some() {
+                return Err(bad(k, "given more than once"));
+            }
+        }
+        Self::from_map(&map)
+    }
+
+    fn from_map(map: &Map<String, Value>) -> Result<Self, Problem> {
+        let mut p = JobParams::default();
+        for (k, v) in map {
+            if v.is_null() {
+                if !PARAM_NAMES.contains(&k.as_str()) {
+                    return Err(unknown(k));
+                }
+                continue;
+            }
+            match k.as_str() {
+                "target_edge_length" => p.target_edge_length = Some(typed(k, v)?),
+                "target_edge_ratio" => p.target_edge_ratio = Some(typed(k, v)?),
+                "target_faces" => p.target_faces = Some(typed(k, v)?),
+                "iterations" => p.iterations = typed(k, v)?,
+                "relaxation_steps" => p.relaxation_steps = typed(k, v)?,
+                "preserve_features" => p.preserve_features = typed(k, v)?,
+                "feature_angle" => p.feature_angle = typed(k, v)?,
+                "sizing" => p.sizing = typed(k, v)?,
+                "tolerance" => p.tolerance = Some(typed(k, v)?),
+                "min_edge_length" => p.min_edge_length = Some(typed(k, v)?),
+                "max_edge_length" => p.max_edge_length = Some(typed(k, v)?),
+                "gradation" => p.gradation = typed(k, v)?,
+                "output_format" => {
+                    let s: String = typed(k, v)?;
+                    p.output_format = Some(s.parse::<Format>().map_err(|e| bad(k, e))?);
+                }
+                _ => return Err(unknown(k)),
+            }
+        }
+        Ok(p)
+    }
+
+    /// The engine's options, validated. `threads` and `max_output_faces`
+    /// come from the service's configuration, not from the caller.
+    pub fn to_options(
+        &self,
+        threads: usize,
+        max_output_faces: u64,
+    ) -> Result<RemeshOptions, Problem> {
+        let o = RemeshOptions {
+            target_edge_length: self.target_edge_length,
+            target_edge_ratio: self.target_edge_ratio,
+            target_faces: self.target_faces,
+            iterations: self.iterations,
+            relaxation_steps: self.relaxation_steps,
+            preserve_features: self.preserve_features,
+            feature_angle: self.feature_angle,
+            sizing: self.sizing,
+            tolerance: self.tolerance,
+            min_edge_length: self.min_edge_length,
+            max_edge_length: self.max_edge_length,
+            gradation: self.gradation,
+            threads: Some(threads.max(1)),
+            max_output_faces,
+            ..RemeshOptions::default()
+        };
+        o.validate().map_err(|e| match e {
+            crate::remesh::RemeshError::InvalidOption { field, message } => bad(field, message),
+            other => bad("params", other),
+        })?;
+        Ok(o)
+    }
+}
+
+fn unknown(k: &str) -> Problem {
+    bad(
+        k,
+        format!(
+            "unknown parameter; the parameters are {}",
+            PARAM_NAMES.join(", ")
+        ),
+    )
+}
+
+/// What the estimate needs to know about an input.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct InputGeometry {
+    /// Surface area.
+    pub area: f64,
+    /// Bounding-box diagonal.
+    pub bbox_diagonal: f64,
+    /// Mean edge length of the repaired mesh.
+    pub mean_edge_length: f64,
+}
+
+/// The pre-queue output estimate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Estimate {
+    /// The edge length the estimate uses: the resolved uniform target, or
+    /// under adaptive sizing the smallest allowed target (an upper bound).
+    pub edge_length: f64,
+    /// area / (√3/4 · L²), saturated.
+    pub triangles: u64,
+    /// The parameter that sets L, named in the 422 when the estimate is too large.
+    pub field: &'static str,
+}
+
+/// Estimates the output triangle count as area / (√3/4 · L²).
+///
+/// Uniform sizing resolves L as the engine does (explicit length, ratio ×
+/// diagonal, area from `target_faces`, or the mean edge length). Adaptive
+/// sizing uses the smallest target the sizing field may assign:
+/// `min_edge_length`, else the tolerance-derived minimum
+/// (`DEFAULT_MIN_EDGE_FACTOR` × ε with ε = `tolerance` or 0.1 % of the
+/// diagonal). That bounds the count from above, since flat regions get
+/// longer edges; the engine re-checks with the real field before it allocates.
+pub fn estimate_output(g: &InputGeometry, o: &RemeshOptions) -> Estimate {
+    let (l, field) = match o.sizing {
+        Sizing::Uniform => {
+            if let Some(l) = o.target_edge_length {
+                (l, "target_edge_length")
+            } else if let Some(r) = o.target_edge_ratio {
+                (r * g.bbox_diagonal, "target_edge_ratio")
+            } else if let Some(f) = o.target_faces {
+                (
+                    (g.area / (f as f64 * 3f64.sqrt() / 4.0)).sqrt(),
+                    "target_faces",
+                )
+            } else {
+                (g.mean_edge_length, "target_edge_length")
+            }
+        }
+        Sizing::Adaptive => match o.min_edge_length {
+            Some(a) => (a, "min_edge_length"),
+            None => {
+                let eps = o
+                    .tolerance
+                    .unwrap_or(DEFAULT_RELATIVE_TOLERANCE * g.bbox_diagonal);
+                (DEFAULT_MIN_EDGE_FACTOR * eps, "tolerance")
+            }
+        },
+    };
+    let est = g.area / (3f64.sqrt() / 4.0 * l * l);
+    let triangles = if est.is_finite() && est >= 0.0 {
+        est.min(u64::MAX as f64) as u64
+    } else {
+        u64::MAX
+    };
+    Estimate {
+        edge_length: l,
+        triangles,
+        field,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn query_values_take_their_types() {
+        let q = |k: &str, v: &str| vec![(k.to_string(), v.to_string())];
+        let p = JobParams::from_query(&q("iterations", "3")).unwrap();
+        assert_eq!(p.iterations, 3);
+        let p = JobParams::from_query(&q("sizing", "adaptive")).unwrap();
+        assert_eq!(p.sizing, Sizing::Adaptive);
+        let p = JobParams::from_query(&q("output_format", "STL")).unwrap();
+        assert_eq!(p.output_format, Some(Format::Stl));
+        let p = JobParams::from_query(&q("preserve_features", "false")).unwrap();
+        assert!(!p.preserve_features);
+    }
+
+    #[test]
+    fn every_problem_names_its_field() {
+        let e = JobParams::from_json(&serde_json::json!({"iterations": "many"})).unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("iterations"));
+        let e = JobParams::from_json(&serde_json::json!({"threads": 4})).unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("threads"));
+        assert_eq!(e.status, 422);
+        let e = JobParams::from_json(&serde_json::json!({"sizing": "fancy"})).unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("sizing"));
+        let e = JobParams::from_json(&serde_json::json!({"output_format": "fbx"})).unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("output_format"));
+        let p = JobParams::from_json(&serde_json::json!({"gradation": -1.0})).unwrap();
+        let e = p.to_options(1, 100).unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("gradation"));
+        let dup = vec![
+            ("iterations".into(), "1".into()),
+            ("iterations".into(), "2".into()),
+        ];
+        assert_eq!(
+            JobParams::from_query(&dup).unwrap_err().field.as_deref(),
+            Some("iterations")
+        );
+    }
+
+    #[test]
+    fn estimate_follows_area_over_equilateral_triangle_area() {
+        let g = InputGeometry {
+            area: 6.0,
+            bbox_diagonal: 3f64.sqrt(),
+            mean_edge_length: 0.5,
+        };
+        let mut o = RemeshOptions::default().with_target_edge_length(0.1);
+        let e = estimate_output(&g, &o);
+        let expect = 6.0 / (3f64.sqrt() / 4.0 * 0.01);
+        assert!((e.triangles as f64 - expect).abs() <= 1.0);
+        assert_eq!(e.field, "target_edge_length");
+        o = RemeshOptions::default().with_target_faces(1000);
+        assert!((estimate_output(&g, &o).triangles as i64 - 1000).abs() <= 1);
+        o = RemeshOptions {
+            sizing: Sizing::Adaptive,
+            tolerance: Some(0.01),
+            ..Default::default()
+        };
+        let e = estimate_output(&g, &o);
+        assert_eq!(e.field, "tolerance");
+        assert!((e.edge_length - 0.01 * DEFAULT_MIN_EDGE_FACTOR).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,90 @@
+//! The route table and [`app`]. The router is built from [`routes`], the
+//! same table the contract test compares with `openapi.yaml`, so the two
+//! cannot drift apart silently. Layers: a request id (`x-request-id`, taken
+//! from the client or generated) set first, a trace span carrying it around
+//! every request, the id echoed in the response, and the body limit that the
+//! multipart parser honours.
+
+use axum::extract::DefaultBodyLimit;
+use axum::http::{HeaderName, Method, Request};
+use axum::routing::{delete, get, post, MethodRouter};
+use axum::Router;
+use tower_http::request_id::{MakeRequestUuid, PropagateRequestIdLayer, SetRequestIdLayer};
+use tower_http::trace::{DefaultOnResponse, TraceLayer};
+use tower_http::LatencyUnit;
+use tracing::Level;
+
+use super::handlers;
+use super::AppState;
+
+/// One route: method, path (axum syntax, `{id}`), handler.
+pub struct Route {
+    /// The HTTP method.
+    pub method: Method,
+    /// The path template, as in `openapi.yaml`.
+    pub path: &'static str,
+    handler: MethodRouter<AppState>,
+}
+
+/// Every route the service answers.
+pub fn routes() -> Vec<Route> {
+    let r = |method: Method, path: &'static str, handler: MethodRouter<AppState>| Route {
+        method,
+        path,
+        handler,
+    };
+    vec![
+        r(Method::POST, "/v1/jobs", post(handlers::submit)),
+        r(Method::GET, "/v1/jobs", get(handlers::list)),
+        r(Method::GET, "/v1/jobs/{id}", get(handlers::get_job)),
+        r(Method::DELETE, "/v1/jobs/{id}", delete(handlers::delete)),
+        r(Method::GET, "/v1/jobs/{id}/result", get(handlers::result)),
+        r(Method::POST, "/v1/jobs/{id}/cancel", post(handlers::cancel)),
+        r(Method::GET, "/healthz", get(handlers::healthz)),
+        r(Method::GET, "/readyz", get(handlers::readyz)),
+        r(Method::GET, "/metrics", get(handlers::metrics)),
+        r(Method::GET, "/openapi.yaml", get(handlers::openapi)),
+    ]
+}
+
+/// (method, path) of every route, for the contract test.
+pub fn route_table() -> Vec<(Method, &'static str)> {
+    routes().into_iter().map(|r| (r.method, r.path)).collect()
+}
+
+/// The service's router over `state`.
+pub fn app(state: AppState) -> Router {
+    let body_limit = usize::try_from(state.config.max_body_bytes).unwrap_or(usize::MAX);
+    let request_id = HeaderName::from_static("x-request-id");
+    let router = routes()
+        .into_iter()
+        .fold(Router::new(), |router, r| router.route(r.path, r.handler));
+    router
+        .fallback(handlers::not_found)
+        .method_not_allowed_fallback(handlers::method_not_allowed)
+        .with_state(state)
+        .layer(DefaultBodyLimit::max(body_limit))
+        .layer(PropagateRequestIdLayer::new(request_id.clone()))
+        .layer(
+            TraceLayer::new_for_http()
+                .make_span_with(|req: &Request<_>| {
+                    let id = req
+                        .headers()
+                        .get("x-request-id")
+                        .and_then(|v| v.to_str().ok())
+                        .unwrap_or("-");
+                    tracing::info_span!(
+                        "request",
+                        request_id = %id,
+                        method = %req.method(),
+                        path = %req.uri().path()
+                    )
+                })
+                .on_response(
+                    DefaultOnResponse::new()
+                        .level(Level::INFO)
+                        .latency_unit(LatencyUnit::Micros),
+                ),
+        )
+        .layer(SetRequestIdLayer::new(request_id, MakeRequestUuid))
+}

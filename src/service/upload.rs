@@ -1,0 +1,241 @@
+//! Receiving a submission: the body is read frame by frame under the size
+//! limit and the upload deadline (so a slow or endless upload cannot hold
+//! memory or a connection forever), then split into the mesh, the params and
+//! any external glTF buffers. Multipart bodies carry a `mesh` file part, an
+//! optional `params` JSON part and buffer parts named by their `uri`; any
+//! other body is the mesh itself, with its format from `Content-Type` or the
+//! content and its params from the query string.
+
+use axum::body::{Body, Bytes};
+use axum::extract::{FromRequest, Multipart, Query, Request};
+use axum::http::header;
+use http_body_util::BodyExt;
+use sha2::{Digest, Sha256};
+
+use super::config::ServiceConfig;
+use super::params::JobParams;
+use super::problem::{Problem, ProblemKind};
+use crate::io::Format;
+
+/// A received submission, not yet parsed as a mesh.
+#[derive(Debug)]
+pub struct Upload {
+    /// The mesh file's bytes.
+    pub mesh: Bytes,
+    /// The mesh part's file name, if any.
+    pub file_name: Option<String>,
+    /// The format named by the mesh's media type, if it names one.
+    pub format_hint: Option<Format>,
+    /// The parameters.
+    pub params: JobParams,
+    /// External glTF buffers: (uri, bytes), in the order received.
+    pub buffers: Vec<(String, Vec<u8>)>,
+    /// SHA-256 (hex) over the mesh, its name and format hint, the buffers
+    /// and the normalised params: what an `Idempotency-Key` is bound to.
+    /// Multipart boundaries and part order of the params do not change it.
+    pub fingerprint: String,
+}
+
+fn too_large(limit: u64) -> Problem {
+    Problem::new(
+        ProblemKind::BodyTooLarge,
+        format!("the request body exceeds the limit of {limit} bytes"),
+    )
+    .with_field("body")
+}
+
+/// How much of an oversized body is still read (and discarded) before the
+/// 413 is sent. A server that answers and closes while the client is still
+/// writing makes many clients report a broken pipe instead of the answer;
+/// draining a bounded tail lets them read the problem document.
+const LINGER_BYTES: u64 = 1 << 20;
+
+/// Reads the whole body, failing past `limit` bytes (after draining up to
+/// [`LINGER_BYTES`] more).
+async fn read_limited(mut body: Body, limit: u64) -> Result<Bytes, Problem> {
+    let mut buf: Vec<u8> = Vec::new();
+    let mut seen: u64 = 0;
+    while let Some(frame) = body.frame().await {
+        let frame = frame.map_err(|e| {
+            Problem::new(
+                ProblemKind::InvalidRequest,
+                format!("the body could not be read: {e}"),
+            )
+        })?;
+        if let Ok(data) = frame.into_data() {
+            seen += data.len() as u64;
+            if seen > limit + LINGER_BYTES {
+                break;
+            }
+            if seen <= limit {
+                buf.extend_from_slice(&data);
+            } else {
+                buf = Vec::new();
+            }
+        }
+    }
+    if seen > limit {
+        return Err(too_large(limit));
+    }
+    Ok(Bytes::from(buf))
+}
+
+fn bad_request(detail: impl Into<String>) -> Problem {
+    Problem::new(ProblemKind::InvalidRequest, detail)
+}
+
+/// Reads and splits a submission.
+pub async fn read_upload(req: Request, cfg: &ServiceConfig) -> Result<Upload, Problem> {
+    let (parts, body) = req.into_parts();
+    let declared = parts
+        .headers
+        .get(header::CONTENT_LENGTH)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.parse::<u64>().ok());
+    if declared.is_some_and(|n| n > cfg.max_body_bytes + LINGER_BYTES) {
+        return Err(too_large(cfg.max_body_bytes));
+    }
+    let bytes = tokio::time::timeout(cfg.upload_timeout(), read_limited(body, cfg.max_body_bytes))
+        .await
+        .map_err(|_| {
+            Problem::new(
+                ProblemKind::UploadTimeout,
+                format!(
+                    "the upload did not complete within {} s",
+                    cfg.upload_timeout_secs
+                ),
+            )
+        })??;
+    let content_type = parts
+        .headers
+        .get(header::CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .unwrap_or("")
+        .to_string();
+    let multipart = content_type
+        .split(';')
+        .next()
+        .is_some_and(|m| m.trim().eq_ignore_ascii_case("multipart/form-data"));
+    let query = parts.uri.query().unwrap_or("").to_string();
+    let (mesh, file_name, format_hint, params, buffers) = if multipart {
+        if !query.is_empty() {
+            return Err(bad_request(
+                "with a multipart body, send the parameters in the `params` part, not in the query string",
+            )
+            .with_field("params"));
+        }
+        let req = Request::from_parts(parts, Body::from(bytes));
+        read_multipart(req).await?
+    } else {
+        let pairs = Query::<Vec<(String, String)>>::try_from_uri(&parts.uri)
+            .map_err(|e| bad_request(format!("the query string cannot be parsed: {e}")))?
+            .0;
+        let params = JobParams::from_query(&pairs)?;
+        if bytes.is_empty() {
+            return Err(bad_request("the body is empty; send a mesh file").with_field("mesh"));
+        }
+        let hint = Format::from_mime(&content_type);
+        (bytes, None, hint, params, Vec::new())
+    };
+    let fingerprint = fingerprint(&mesh, file_name.as_deref(), format_hint, &params, &buffers);
+    Ok(Upload {
+        mesh,
+        file_name,
+        format_hint,
+        params,
+        buffers,
+        fingerprint,
+    })
+}
+
+type Split = (
+    Bytes,
+    Option<String>,
+    Option<Format>,
+    JobParams,
+    Vec<(String, Vec<u8>)>,
+);
+
+async fn read_multipart(req: Request) -> Result<Split, Problem> {
+    let mp_err = |e: axum::extract::multipart::MultipartError| {
+        bad_request(format!(
+            "the multipart body is malformed: {}",
+            e.body_text()
+        ))
+    };
+    let mut mp = Multipart::from_request(req, &())
+        .await
+        .map_err(|e| bad_request(format!("the multipart body is malformed: {e}")))?;
+    let mut mesh = None;
+    let mut params = None;
+    let mut buffers: Vec<(String, Vec<u8>)> = Vec::new();
+    while let Some(field) = mp.next_field().await.map_err(mp_err)? {
+        let name = field.name().unwrap_or("").to_string();
+        let file_name = field.file_name().map(str::to_string);
+        let hint = field.content_type().and_then(Format::from_mime);
+        let data = field.bytes().await.map_err(mp_err)?;
+        match name.as_str() {
+            "mesh" => {
+                if mesh.is_some() {
+                    return Err(bad_request("more than one `mesh` part").with_field("mesh"));
+                }
+                mesh = Some((data, file_name, hint));
+            }
+            "params" => {
+                if params.is_some() {
+                    return Err(bad_request("more than one `params` part").with_field("params"));
+                }
+                let v: serde_json::Value = serde_json::from_slice(&data).map_err(|e| {
+                    bad_request(format!("the `params` part is not valid JSON: {e}"))
+                        .with_field("params")
+                })?;
+                params = Some(JobParams::from_json(&v)?);
+            }
+            "" => return Err(bad_request("a multipart part has no name")),
+            uri => {
+                if buffers.iter().any(|(u, _)| u == uri) {
+                    return Err(
+                        bad_request(format!("more than one part named {uri:?}")).with_field(uri)
+                    );
+                }
+                buffers.push((uri.to_string(), data.to_vec()));
+            }
+        }
+    }
+    let Some((data, file_name, hint)) = mesh else {
+        return Err(
+            bad_request("no `mesh` part: send the mesh file as a part named `mesh`")
+                .with_field("mesh"),
+        );
+    };
+    if data.is_empty() {
+        return Err(bad_request("the `mesh` part is empty").with_field("mesh"));
+    }
+    Ok((data, file_name, hint, params.unwrap_or_default(), buffers))
+}
+
+fn fingerprint(
+    mesh: &[u8],
+    file_name: Option<&str>,
+    hint: Option<Format>,
+    params: &JobParams,
+    buffers: &[(String, Vec<u8>)],
+) -> String {
+    let mut h = Sha256::new();
+    let mut field = |bytes: &[u8]| {
+        h.update((bytes.len() as u64).to_le_bytes());
+        h.update(bytes);
+    };
+    field(b"isoremesh-submission-v1");
+    field(file_name.unwrap_or("").as_bytes());
+    field(hint.map(|f| f.extension()).unwrap_or("").as_bytes());
+    field(&serde_json::to_vec(params).unwrap_or_default());
+    field(mesh);
+    let mut sorted: Vec<_> = buffers.iter().collect();
+    sorted.sort_by(|a, b| a.0.cmp(&b.0));
+    for (uri, bytes) in sorted {
+        field(uri.as_bytes());
+        field(bytes);
+    }
+    hex::encode(h.finalize())
+}

@@ -272,7 +272,8 @@ fn local_builder(engine: Engine) -> String {
     tag
 }
 
-/// Removes the container however the test ends.
+/// Removes the container and its anonymous /data volume however the test
+/// ends.
 struct Container {
     engine: Engine,
     name: String,
@@ -280,7 +281,7 @@ struct Container {
 
 impl Drop for Container {
     fn drop(&mut self) {
-        let _ = self.engine.run(&["rm", "-f", &self.name]);
+        let _ = self.engine.run(&["rm", "-f", "-v", &self.name]);
     }
 }
 
@@ -400,7 +401,7 @@ fn image_builds_serves_a_job_and_stops_cleanly_on_sigterm() {
         engine,
         name: format!("isoremesh-container-test-{}", std::process::id()),
     };
-    let _ = engine.run(&["rm", "-f", &container.name]);
+    let _ = engine.run(&["rm", "-f", "-v", &container.name]);
     let mut run: Vec<String> = vec![
         "run".into(),
         "-d".into(),

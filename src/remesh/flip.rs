@@ -76,13 +76,16 @@ pub(super) fn flip_edges(st: &mut State, cancelled: &dyn Fn() -> bool) -> Result
             if !geometry_ok(old, new) || !m.can_flip(e) {
                 continue;
             }
-            let ring = [m.next(h), m.prev(h), m.next(o), m.prev(o)];
             st.mesh.flip_edge(e);
-            for g in ring {
-                let j = g.edge().idx();
-                if !queued[j] {
-                    queued[j] = true;
-                    next.push(j as u32);
+            // The valences of a, b, c and d changed: every edge at them may
+            // now profit from a flip.
+            for v in [a, b, c, d] {
+                for g in st.mesh.outgoing(v) {
+                    let j = g.edge().idx();
+                    if !queued[j] {
+                        queued[j] = true;
+                        next.push(j as u32);
+                    }
                 }
             }
             valence[a.idx()] -= 1;

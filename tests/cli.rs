@@ -1,0 +1,155 @@
+//! The `isoremesh` binary end to end: `stats` and `remesh` on real files,
+//! and one clear line with a non-zero exit for every kind of bad input.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_isoremesh"))
+}
+
+fn data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(name)
+}
+
+/// Runs the binary and expects failure with one stderr line naming `file` and containing `needle`.
+fn expect_failure(args: &[&str], file: &str, needle: &str) {
+    let out = bin().args(args).output().unwrap();
+    assert!(!out.status.success(), "{args:?} succeeded");
+    let err = String::from_utf8_lossy(&out.stderr);
+    let lines: Vec<&str> = err.lines().collect();
+    assert_eq!(lines.len(), 1, "expected one line, got {err:?}");
+    assert!(lines[0].contains(file), "{err:?} does not name {file}");
+    assert!(
+        lines[0].to_lowercase().contains(needle),
+        "{err:?} does not mention {needle}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+#[test]
+fn stats_json_is_the_only_stdout_and_has_the_documented_fields() {
+    let out = bin()
+        .args(["stats", data("spot.obj").to_str().unwrap(), "--json"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("stdout is JSON");
+    for k in [
+        "vertices",
+        "faces",
+        "edges",
+        "boundary_loops",
+        "components",
+        "euler_characteristic",
+    ] {
+        assert!(v.get(k).is_some(), "missing {k}");
+    }
+    assert_eq!(v["vertices"], 2930);
+    assert_eq!(v["faces"], 5856);
+    assert_eq!(v["euler_characteristic"], 2);
+    assert!(v["edge_length"]["histogram"]["counts"].is_array());
+    assert!(v["valence"]["regular_fraction"].is_number());
+    assert!(v["angles"]["below_30_fraction"].is_number());
+    assert!(v["triangle_quality"]["mean"].is_number());
+    assert!(v["repairs"]["welded_vertices"].is_number());
+}
+
+#[test]
+fn stats_with_a_reference_reports_distances() {
+    let spot = data("spot.obj");
+    let out = bin()
+        .args([
+            "stats",
+            spot.to_str().unwrap(),
+            "--reference",
+            spot.to_str().unwrap(),
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(v["distance"]["hausdorff"].as_f64().unwrap() < 1e-9);
+}
+
+#[test]
+fn remesh_writes_the_output_format_of_its_extension_and_stats() {
+    let dir = tempfile::tempdir().unwrap();
+    for ext in ["glb", "obj", "ply", "stl", "off", "gltf"] {
+        let out_path = dir.path().join(format!("out.{ext}"));
+        let stats_path = dir.path().join("stats.json");
+        let st = bin()
+            .args([
+                "remesh",
+                data("cube.obj").to_str().unwrap(),
+                out_path.to_str().unwrap(),
+                "--target-edge-ratio",
+                "0.1",
+                "--iterations",
+                "3",
+                "--stats",
+                stats_path.to_str().unwrap(),
+            ])
+            .output()
+            .unwrap();
+        assert!(
+            st.status.success(),
+            "{}",
+            String::from_utf8_lossy(&st.stderr)
+        );
+        assert!(st.stderr.is_empty(), "not quiet without a terminal");
+        let back = bin()
+            .args(["stats", out_path.to_str().unwrap(), "--json"])
+            .output()
+            .unwrap();
+        assert!(back.status.success());
+        let v: serde_json::Value = serde_json::from_slice(&back.stdout).unwrap();
+        assert_eq!(v["euler_characteristic"], 2, "{ext}");
+        let s: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&stats_path).unwrap()).unwrap();
+        assert!(s["output"]["distance"]["hausdorff_relative"].is_number());
+        assert!(s["input"]["faces"] == 12);
+    }
+}
+
+#[test]
+fn every_bad_input_gives_one_line_and_a_non_zero_exit() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, bytes: &[u8]| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, bytes).unwrap();
+        p.to_str().unwrap().to_string()
+    };
+    let missing = dir.path().join("missing.obj");
+    expect_failure(
+        &["stats", missing.to_str().unwrap()],
+        "missing.obj",
+        "no such file",
+    );
+    let unknown = write("mesh.xyz", b"\x00\x01\x02 not a mesh at all");
+    expect_failure(&["stats", &unknown], "mesh.xyz", "unknown");
+    let duck = std::fs::read(data("gltf/Duck.glb")).unwrap();
+    let truncated = write("truncated.glb", &duck[..duck.len() / 2]);
+    expect_failure(&["stats", &truncated], "truncated.glb", "");
+    let bad_index = write("bad_index.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n");
+    expect_failure(&["stats", &bad_index], "bad_index.obj", "");
+    let nan = write("nan.obj", b"v 0 0 0\nv 1 nan 0\nv 0 1 0\nf 1 2 3\n");
+    expect_failure(&["stats", &nan], "nan.obj", "");
+    let empty = write("empty.obj", b"# nothing here\n");
+    expect_failure(&["stats", &empty], "empty.obj", "");
+    let out = dir.path().join("out.obj");
+    expect_failure(&["remesh", &empty, out.to_str().unwrap()], "empty.obj", "");
+    let bad_ext = dir.path().join("out.xyz");
+    expect_failure(
+        &[
+            "remesh",
+            data("cube.obj").to_str().unwrap(),
+            bad_ext.to_str().unwrap(),
+        ],
+        "out.xyz",
+        "format",
+    );
+}

@@ -11,6 +11,7 @@
 //! triangle wins.
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use super::state::{State, COLLAPSE_FACTOR, CORNER, SMOOTH, SPLIT_FACTOR};
 use super::RemeshError;
@@ -32,9 +33,28 @@ pub(super) fn collapse_short_edges(
     cancelled: &dyn Fn() -> bool,
 ) -> Result<u64, RemeshError> {
     let mut count = 0u64;
-    let n = st.mesh.edge_capacity() as u32;
-    for i in 0..n {
-        if i % 4096 == 0 && cancelled() {
+    // Find the short edges in parallel (a pure scan), then collapse them in
+    // index order, re-checking each one, so the result stays deterministic.
+    let candidates: Vec<u32> = {
+        let m = &st.mesh;
+        let st_ref: &State = st;
+        st.pool.install(|| {
+            (0..m.edge_capacity() as u32)
+                .into_par_iter()
+                .filter(|&i| {
+                    let e = EdgeId(i);
+                    if m.is_edge_deleted(e) {
+                        return false;
+                    }
+                    let [a, b] = m.edge_vertices(e);
+                    m.position(a).distance(m.position(b))
+                        < COLLAPSE_FACTOR * st_ref.edge_target(a, b)
+                })
+                .collect()
+        })
+    };
+    for (k, &i) in candidates.iter().enumerate() {
+        if k % 4096 == 0 && cancelled() {
             return Err(RemeshError::Cancelled);
         }
         let e = EdgeId(i);

@@ -8,6 +8,7 @@
 //! orientation and must not be degenerate or much worse than before.
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use super::state::State;
 use super::RemeshError;
@@ -35,7 +36,38 @@ pub(super) fn flip_edges(st: &mut State, cancelled: &dyn Fn() -> bool) -> Result
     let mut count = 0u64;
     // The first sweep visits every edge; later sweeps only the edges around
     // the quads that changed, in index order (deterministic).
-    let mut work: Vec<u32> = (0..st.mesh.edge_capacity() as u32).collect();
+    // The first sweep's candidates are found in parallel with the valences
+    // at the start; flips queue every edge whose valences they change.
+    let mut work: Vec<u32> = {
+        let m = &st.mesh;
+        let (valence, target) = (&valence, &target);
+        st.pool.install(|| {
+            (0..m.edge_capacity() as u32)
+                .into_par_iter()
+                .filter(|&i| {
+                    let e = EdgeId(i);
+                    if m.is_edge_deleted(e) || m.is_boundary_edge(e) {
+                        return false;
+                    }
+                    let h = e.halfedge(0);
+                    let o = h.twin();
+                    let vs = [
+                        m.to_vertex(o),
+                        m.to_vertex(h),
+                        m.to_vertex(m.next(h)),
+                        m.to_vertex(m.next(o)),
+                    ];
+                    let d = |k: usize, delta: i32| {
+                        let x = valence[vs[k].idx()] + delta - target[vs[k].idx()];
+                        x * x
+                    };
+                    let before = d(0, 0) + d(1, 0) + d(2, 0) + d(3, 0);
+                    let after = d(0, -1) + d(1, -1) + d(2, 1) + d(3, 1);
+                    after <= before
+                })
+                .collect()
+        })
+    };
     let mut queued = vec![false; st.mesh.edge_capacity()];
     for _ in 0..MAX_SWEEPS {
         let mut flipped = 0u64;

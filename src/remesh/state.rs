@@ -164,6 +164,9 @@ impl State {
                 }
             };
         }
+        if options.preserve_features {
+            anchor_tips(&mesh, &mut kind);
+        }
         let mut hint_face = vec![0u32; nv];
         for f in mesh.faces() {
             for v in mesh.face_vertices(f) {
@@ -269,6 +272,32 @@ impl State {
             }
         }
         (self.mesh, sizes)
+    }
+}
+
+/// Angle defect (2π minus the angles around a vertex) above which a smooth
+/// interior vertex is the tip of a spike or cone and is kept as a corner.
+const TIP_ANGLE_DEFECT: f64 = 0.3;
+
+/// Keeps the tips of spikes (horns, ears, noses) where they are. An
+/// isotropic mesh at length L cuts across a tip unless a vertex sits on it,
+/// and that chord is where the distance to the input peaks; one fixed vertex
+/// there costs nothing in triangle shape.
+fn anchor_tips(mesh: &Mesh, kind: &mut [u32]) {
+    for v in mesh.vertices() {
+        if kind[v.idx()] != SMOOTH || mesh.is_boundary_vertex(v) {
+            continue;
+        }
+        let p = mesh.position(v);
+        let mut sum = 0.0;
+        for h in mesh.outgoing(v) {
+            let a = mesh.position(mesh.to_vertex(h)) - p;
+            let b = mesh.position(mesh.to_vertex(mesh.next(h))) - p;
+            sum += a.angle_between(b);
+        }
+        if (std::f64::consts::TAU - sum).abs() > TIP_ANGLE_DEFECT {
+            kind[v.idx()] = CORNER;
+        }
     }
 }
 

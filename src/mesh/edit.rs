@@ -138,7 +138,6 @@ impl Mesh {
             self.v_out[b.idx()] = t;
         }
         self.adjust_outgoing(m);
-        let _ = a;
         debug_assert!(self.from_vertex(o) == m && self.to_vertex(o) == a);
         SplitResult {
             vertex: m,

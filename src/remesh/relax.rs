@@ -118,7 +118,6 @@ pub(super) fn project_to_input(st: &mut State) -> u64 {
     let features = &st.features;
     let hint_face = &st.hint_face;
     let hint_seg = &st.hint_seg;
-    let input = &st.input;
     let size = &st.size;
     let st_ref: &State = st;
     let results: Vec<Projected> = st.pool.install(|| {
@@ -149,7 +148,6 @@ pub(super) fn project_to_input(st: &mut State) -> u64 {
             })
             .collect()
     });
-    let _ = input;
     let targets: Vec<DVec3> = results.iter().map(|r| r.0).collect();
     for (i, r) in results.iter().enumerate() {
         st.hint_face[i] = r.1;

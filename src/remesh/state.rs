@@ -30,7 +30,6 @@ pub(super) const COLLAPSE_FACTOR: f64 = 4.0 / 5.0;
 
 pub(super) struct State {
     pub mesh: Mesh,
-    pub input: TriMesh,
     pub index: SurfaceIndex,
     pub features: FeatureSet,
     pub sizing: Option<SizingField>,
@@ -57,7 +56,6 @@ pub(super) struct State {
 /// Everything of [`State`] but the pool, built inside the pool.
 pub(super) struct PartialState {
     mesh: Mesh,
-    input: TriMesh,
     index: SurfaceIndex,
     features: FeatureSet,
     sizing: Option<SizingField>,
@@ -80,7 +78,6 @@ impl State {
         let p = pool.install(|| Self::prepare(input, options))?;
         Ok(Self {
             mesh: p.mesh,
-            input: p.input,
             index: p.index,
             features: p.features,
             sizing: p.sizing,
@@ -116,7 +113,7 @@ impl State {
         let nv = mesh.vertex_capacity();
         let (sizing, size) = match options.sizing {
             Sizing::Uniform => {
-                let l = uniform_target(&mesh, &tm, options, diag, area);
+                let l = uniform_target(&mesh, options, diag, area);
                 check_estimate(area, l, options.max_output_faces)?;
                 (None, vec![l; nv])
             }
@@ -190,7 +187,6 @@ impl State {
             vertex_face_start,
             vertex_faces,
             mesh,
-            input: tm,
             index,
             features,
             sizing,
@@ -324,7 +320,7 @@ fn vertex_face_csr(tm: &TriMesh) -> (Vec<u32>, Vec<u32>) {
     (start, faces)
 }
 
-fn uniform_target(mesh: &Mesh, tm: &TriMesh, o: &RemeshOptions, diag: f64, area: f64) -> f64 {
+fn uniform_target(mesh: &Mesh, o: &RemeshOptions, diag: f64, area: f64) -> f64 {
     if let Some(l) = o.target_edge_length {
         l
     } else if let Some(r) = o.target_edge_ratio {
@@ -335,7 +331,6 @@ fn uniform_target(mesh: &Mesh, tm: &TriMesh, o: &RemeshOptions, diag: f64, area:
         let (sum, n) = mesh
             .edges()
             .fold((0.0, 0usize), |(s, n), e| (s + mesh.edge_length(e), n + 1));
-        let _ = tm;
         sum / n.max(1) as f64
     }
 }

@@ -44,6 +44,13 @@ struct StatsArgs {
     /// Measure the distance to this reference mesh.
     #[arg(long)]
     reference: Option<PathBuf>,
+    /// Area samples per side for the distance (vertices are added).
+    #[arg(long, default_value_t = 200_000)]
+    samples: usize,
+    /// Seed of the distance samples; with the same seed and sample count,
+    /// the benchmark's quality.py measures at the same points.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
     /// Override the format detection of INPUT.
     #[arg(long)]
     format: Option<Format>,
@@ -192,9 +199,9 @@ fn percent_decode(s: &str) -> String {
 
 fn stats_command(a: StatsArgs) -> Result<(), Failure> {
     let input = load(&a.input, a.format)?;
-    let mesh = input.mesh.to_trimesh();
+    let mesh = input.source;
     let reference = match &a.reference {
-        Some(p) => Some(load(p, None)?.mesh.to_trimesh()),
+        Some(p) => Some(load(p, None)?.source),
         None => None,
     };
     if let Some(l) = a.target_edge_length {
@@ -209,6 +216,8 @@ fn stats_command(a: StatsArgs) -> Result<(), Failure> {
         &StatsOptions {
             target_edge_length: a.target_edge_length,
             reference: reference.as_ref(),
+            samples_per_side: a.samples,
+            sample_seed: a.seed,
             repairs: Some(input.repairs),
             ..Default::default()
         },

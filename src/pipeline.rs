@@ -12,8 +12,9 @@ use crate::remesh::{self, Observer, RemeshError, RemeshOptions, RemeshReport};
 use crate::stats::{self, MeshStats, StatsOptions};
 use crate::trimesh::TriMesh;
 
-/// Area samples per side for the distance statistics of a job.
-pub const DISTANCE_SAMPLES: usize = 100_000;
+/// Area samples per side for the distance statistics of a job: the
+/// benchmark's default, so that its `quality.py` measures at the same points.
+pub const DISTANCE_SAMPLES: usize = 200_000;
 
 /// Any failure of a job, layered by where it happened.
 #[derive(Debug, thiserror::Error)]
@@ -36,6 +37,9 @@ pub struct LoadedInput {
     pub format: Format,
     /// The half-edge mesh after repair.
     pub mesh: Mesh,
+    /// The triangles as read, before repair: what the input statistics and
+    /// the output's distance describe (welded, as the benchmark sees it).
+    pub source: TriMesh,
     /// What was repaired (including ignored non-triangle primitives).
     pub repairs: RepairReport,
 }
@@ -54,6 +58,7 @@ pub fn load(
     Ok(LoadedInput {
         format,
         mesh,
+        source: imported.mesh,
         repairs,
     })
 }
@@ -61,7 +66,9 @@ pub fn load(
 /// Input and output statistics of a job.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct JobStats {
-    /// The repaired input, measured against the job's target length.
+    /// The input as read (welded, as the benchmark sees it; `repairs` says
+    /// what was fixed before remeshing), measured against the job's target
+    /// length.
     pub input: MeshStats,
     /// The output, with its distance to the input.
     pub output: MeshStats,
@@ -101,7 +108,7 @@ pub fn remesh_only(
     observer: &mut impl Observer,
 ) -> Result<(TriMesh, remesh::RemeshOutput), JobError> {
     let out = remesh::remesh(&input.mesh, options, observer)?;
-    let output_tm = out.mesh.to_trimesh();
+    let output_tm = output_trimesh(&out);
     let features: Vec<[u32; 2]> = out
         .mesh
         .edges()
@@ -115,6 +122,14 @@ pub fn remesh_only(
     Ok((mesh, out))
 }
 
+/// The output as it is written: faces grouped by label, so that the
+/// statistics sample the faces in the order a reader of the file sees.
+fn output_trimesh(out: &remesh::RemeshOutput) -> TriMesh {
+    let mut tm = out.mesh.to_trimesh();
+    tm.group_faces_by_label();
+    tm
+}
+
 /// Input and output statistics of a finished remesh: the input against the
 /// job's target length, the output with its distance to the input.
 pub fn measure(
@@ -122,13 +137,15 @@ pub fn measure(
     out: &remesh::RemeshOutput,
     options: &RemeshOptions,
 ) -> JobStats {
-    let input_tm = input.mesh.to_trimesh();
-    let output_tm = out.mesh.to_trimesh();
+    let input_tm = &input.source;
+    let output_tm = output_trimesh(out);
     let adaptive = options.sizing == remesh::Sizing::Adaptive;
     let l = out.report.target_edge_length;
-    let index = SurfaceIndex::from_trimesh(&input_tm);
+    // The repaired surface (no degenerate faces) answers the distance
+    // queries; it is the same surface as the source's.
+    let index = SurfaceIndex::from_trimesh(&input.mesh.to_trimesh());
     let input_stats = stats::compute(
-        &input_tm,
+        input_tm,
         &StatsOptions {
             target_edge_length: Some(l),
             repairs: Some(input.repairs),
@@ -139,7 +156,7 @@ pub fn measure(
         &output_tm,
         &StatsOptions {
             target_edge_length: (!adaptive).then_some(l),
-            reference: Some(&input_tm),
+            reference: Some(input_tm),
             reference_index: Some(&index),
             samples_per_side: DISTANCE_SAMPLES,
             vertex_target: adaptive.then_some(out.vertex_target.as_slice()),

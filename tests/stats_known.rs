@@ -524,6 +524,7 @@ fn json_field_names() {
         "mean_relative",
         "rms_relative",
         "samples_per_side",
+        "seed",
     ] {
         assert!(d.get(k).is_some(), "missing distance.{k}");
     }

@@ -570,7 +570,9 @@ fn local_matrix(node: &json::Node) -> DMat4 {
     DMat4::from_scale_rotation_translation(s, r, t)
 }
 
-/// The meshes to read with their world matrices, in scene order.
+/// The meshes to read with their world matrices, in the document order of
+/// their nodes (the order trimesh, and so the benchmark, concatenates them),
+/// whatever the hierarchy's shape.
 fn instances(root: &json::Root, format: Format) -> Result<Vec<(usize, DMat4)>, IoError> {
     let nodes = &root.nodes;
     let roots: Vec<usize> = if let Some(s) = root
@@ -616,13 +618,15 @@ fn instances(root: &json::Root, format: Format) -> Result<Vec<(usize, DMat4)>, I
                     format!("node {n} uses mesh {}, which does not exist", m.value()),
                 ));
             }
-            out.push((m.value(), world));
+            out.push((n, m.value(), world));
         }
         for c in node.children.iter().flatten().rev() {
             stack.push((c.value(), world));
         }
     }
-    Ok(out)
+    // Each node is visited once, so node indices are unique keys.
+    out.sort_unstable_by_key(|&(n, _, _)| n);
+    Ok(out.into_iter().map(|(_, m, w)| (m, w)).collect())
 }
 
 pub(super) fn read(bytes: &[u8], format: Format, opts: &ReadOptions) -> Result<Imported, IoError> {

@@ -20,7 +20,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{HalfedgeId, Mesh, VertexId};
 use crate::mesh::handles::Handle;
-use crate::trimesh::{Label, TriMesh};
+use crate::trimesh::{first_occurrences, weld_positions, Label, TriMesh};
 
 /// What the builder repaired while turning indexed triangles into a valid
 /// half-edge mesh. Every field is a count; all zero means the input was clean.
@@ -94,12 +94,6 @@ pub enum BuildError {
 
 const NONE: u32 = u32::MAX;
 
-/// Bit pattern of a coordinate with −0 folded into +0, so equal values weld.
-#[inline]
-fn key_bits(x: f64) -> u64 {
-    (x + 0.0).to_bits()
-}
-
 impl Mesh {
     /// Builds a manifold, consistently oriented mesh from indexed triangles,
     /// repairing what can be repaired (see the module docs) and reporting it.
@@ -149,25 +143,8 @@ fn build(input: &TriMesh) -> Result<(Mesh, RepairReport), BuildError> {
     let mut report = RepairReport::default();
 
     // 2. Weld equal positions: sort vertex ids by their coordinate bits.
-    // Sorting (key, id) records directly keeps the sort cache-friendly.
-    let mut order: Vec<([u64; 3], u32)> = input
-        .positions
-        .par_iter()
-        .enumerate()
-        .map(|(i, p)| ([key_bits(p.x), key_bits(p.y), key_bits(p.z)], i as u32))
-        .collect();
-    order.par_sort_unstable();
-    let mut weld = vec![0u32; n];
-    let mut welded_pos: Vec<DVec3> = Vec::with_capacity(n);
-    for k in 0..order.len() {
-        let (key, i) = order[k];
-        if k == 0 || key != order[k - 1].0 {
-            welded_pos.push(input.positions[i as usize]);
-        }
-        weld[i as usize] = (welded_pos.len() - 1) as u32;
-    }
+    let (weld, welded_pos) = weld_positions(&input.positions);
     report.welded_vertices = (n - welded_pos.len()) as u64;
-    drop(order);
 
     // 3. Degenerate and duplicate faces.
     let mut tris: Vec<[u32; 3]> = Vec::with_capacity(input.triangles.len());
@@ -195,26 +172,8 @@ fn build(input: &TriMesh) -> Result<(Mesh, RepairReport), BuildError> {
     }
     drop(weld);
     {
-        let mut by_key: Vec<(u128, u32)> = tris
-            .par_iter()
-            .enumerate()
-            .map(|(f, t)| {
-                let mut t = *t;
-                t.sort_unstable();
-                (
-                    ((t[0] as u128) << 64) | ((t[1] as u128) << 32) | t[2] as u128,
-                    f as u32,
-                )
-            })
-            .collect();
-        by_key.par_sort_unstable();
-        let mut keep = vec![true; tris.len()];
-        for w in by_key.windows(2) {
-            if w[0].0 == w[1].0 {
-                keep[w[1].1 as usize] = false;
-                report.duplicate_faces += 1;
-            }
-        }
+        let (keep, repeats) = first_occurrences(&tris);
+        report.duplicate_faces = repeats as u64;
         if report.duplicate_faces > 0 {
             let mut k = 0;
             tris.retain(|_| {

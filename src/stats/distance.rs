@@ -5,38 +5,28 @@
 //! [`SurfaceIndex`]), the Hausdorff distance is the larger of the two
 //! maxima, and mean and RMS pool both sides.
 //!
-//! Sampling is deterministic: sample i of a side draws its numbers from a
-//! splitmix64 stream (Steele, Lea & Flood, "Fast splittable pseudorandom
-//! number generators", 2014) at counters 3i, 3i+1, 3i+2 of a fixed seed, so
-//! the samples are the same however rayon splits the work.
+//! The samples are the ones `quality.py` draws: one NumPy-compatible
+//! PCG64 stream (see [`super::rng`]) from a seed (its default is 0) gives,
+//! for the reference side first and then for the mesh, N uniforms that pick
+//! faces by inverse transform over the normalised cumulative area (NumPy's
+//! `Generator.choice` with probabilities), then N for `r1 = sqrt(u)`, then N
+//! for `r2`, and the sample is `(1 − r1)·A + r1(1 − r2)·B + r1·r2·C`. On the
+//! same welded meshes both tools therefore measure at the same points and
+//! report the same distances. The stream is drawn sequentially (a few
+//! milliseconds); the distance queries are parallel and summed in a fixed
+//! order, so the result does not depend on the thread count.
 
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::rng::Pcg64;
 use crate::bvh::SurfaceIndex;
-use crate::geometry::triangle_area;
 
 /// Points per parallel task; consecutive points chain their answers as hints.
 const CHUNK: usize = 2048;
 
-/// Seeds of the two sides' sample streams.
-const SEED_MESH: u64 = 0x1503_E5A3_0000_0001;
-const SEED_REFERENCE: u64 = 0x1503_E5A3_0000_0002;
-
-/// The splitmix64 output for `counter` of stream `seed`.
-#[inline]
-fn splitmix64(seed: u64, counter: u64) -> u64 {
-    let mut z = seed.wrapping_add(counter.wrapping_add(1).wrapping_mul(0x9E37_79B9_7F4A_7C15));
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
-/// Uniform in [0, 1) with 53 random bits.
-#[inline]
-fn unit(seed: u64, counter: u64) -> f64 {
-    (splitmix64(seed, counter) >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
-}
+/// The default seed of the sample stream: `quality.py`'s default `--seed`.
+pub const DEFAULT_SEED: u64 = 0;
 
 /// One side of the comparison: the surface whose samples are measured.
 pub(crate) struct Side<'a> {
@@ -66,65 +56,74 @@ impl SideDistances {
     }
 }
 
-/// Faces of `n` area-uniform samples of `side`, sorted (so that consecutive
-/// samples are near each other, as far as the face order is coherent).
-fn sample_faces(side: &Side, n: usize, seed: u64) -> Vec<u32> {
-    let mut cumulative = Vec::with_capacity(side.triangles.len());
-    let mut total = 0.0;
-    for t in side.triangles {
-        let p = [
-            side.positions[t[0] as usize],
-            side.positions[t[1] as usize],
-            side.positions[t[2] as usize],
-        ];
-        let a = triangle_area(p);
-        if a.is_finite() {
-            total += a;
-        }
-        cumulative.push(total);
-    }
-    if !(total > 0.0 && total.is_finite()) {
-        return Vec::new();
-    }
-    let last = side.triangles.len() - 1;
-    let mut faces: Vec<u32> = (0..n as u64)
-        .into_par_iter()
-        .map(|i| {
-            let x = unit(seed, 3 * i) * total;
-            // First face whose cumulative area exceeds x: zero-area faces are never chosen.
-            cumulative.partition_point(|&c| c <= x).min(last) as u32
+/// Face areas as `quality.py` computes them: half the norm of
+/// (B − A) × (C − A).
+fn face_areas(side: &Side) -> Vec<f64> {
+    side.triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|v| side.positions[v as usize]);
+            0.5 * (b - a).cross(c - a).length()
         })
-        .collect();
-    faces.par_sort_unstable();
-    faces
+        .collect()
 }
 
-/// Distances from the samples of `side` (area samples on `faces`, then the
-/// used vertices) to the surface of `target`.
-pub(crate) fn side_distances(
-    side: &Side,
-    n: usize,
-    seed: u64,
-    target: &SurfaceIndex,
-) -> SideDistances {
-    let faces = sample_faces(side, n, seed);
+/// `n` area-uniform samples of `side` drawn from `rng` as `quality.py`'s
+/// `sample_surface` draws them, each with the face it lies on, sorted by
+/// face (so that consecutive queries are near each other). Empty when the
+/// side has no area.
+fn draw_samples(side: &Side, n: usize, rng: &mut Pcg64) -> Vec<(u32, DVec3)> {
+    let areas = face_areas(side);
+    let total: f64 = areas.iter().sum();
+    if side.triangles.is_empty() || !(total > 0.0 && total.is_finite()) {
+        return Vec::new();
+    }
+    // cdf = cumsum(area / total) / cdf[-1], then searchsorted(u, 'right').
+    let mut cdf = Vec::with_capacity(areas.len());
+    let mut running = 0.0;
+    for a in &areas {
+        running += a / total;
+        cdf.push(running);
+    }
+    let last = running;
+    for c in &mut cdf {
+        *c /= last;
+    }
+    let last_face = side.triangles.len() - 1;
+    let faces: Vec<u32> = (0..n)
+        .map(|_| {
+            let u = rng.next_f64();
+            cdf.partition_point(|&c| c <= u).min(last_face) as u32
+        })
+        .collect();
+    let r1: Vec<f64> = (0..n).map(|_| rng.next_f64().sqrt()).collect();
+    let r2: Vec<f64> = (0..n).map(|_| rng.next_f64()).collect();
+    let mut samples: Vec<(u32, DVec3)> = (0..n)
+        .into_par_iter()
+        .map(|k| {
+            let f = faces[k];
+            let [a, b, c] = side.triangles[f as usize].map(|v| side.positions[v as usize]);
+            let (s, t) = (r1[k], r2[k]);
+            (f, a * (1.0 - s) + b * (s * (1.0 - t)) + c * (s * t))
+        })
+        .collect();
+    // Stable, so equal faces keep their draw order: the same on every run.
+    samples.par_sort_by_key(|&(f, _)| f);
+    samples
+}
+
+/// Distances from `samples` of `side`, then its used vertices, to the
+/// surface of `target`.
+fn side_distances(side: &Side, samples: &[(u32, DVec3)], target: &SurfaceIndex) -> SideDistances {
     let vertices: Vec<u32> = (0..side.positions.len() as u32)
         .filter(|&v| side.used[v as usize])
         .collect();
-    let total = faces.len() + vertices.len();
+    let total = samples.len() + vertices.len();
     let point = |k: usize| -> DVec3 {
-        if k < faces.len() {
-            let t = side.triangles[faces[k] as usize];
-            let (a, b, c) = (
-                side.positions[t[0] as usize],
-                side.positions[t[1] as usize],
-                side.positions[t[2] as usize],
-            );
-            let r1 = unit(seed, 3 * k as u64 + 1).sqrt();
-            let r2 = unit(seed, 3 * k as u64 + 2);
-            a * (1.0 - r1) + b * (r1 * (1.0 - r2)) + c * (r1 * r2)
+        if k < samples.len() {
+            samples[k].1
         } else {
-            side.positions[vertices[k - faces.len()] as usize]
+            side.positions[vertices[k - samples.len()] as usize]
         }
     };
     let parts: Vec<SideDistances> = (0..total.div_ceil(CHUNK))
@@ -156,17 +155,23 @@ pub(crate) fn side_distances(
         .fold(SideDistances::default(), SideDistances::merge)
 }
 
-/// Both directions: (mesh samples → reference, reference samples → mesh).
+/// Both directions: (mesh samples → reference, reference samples → mesh),
+/// with `n` area samples per side drawn from the stream of `seed`, the
+/// reference's first, as `quality.py` orders them.
 pub(crate) fn two_sided(
     mesh: &Side,
     mesh_index: &SurfaceIndex,
     reference: &Side,
     reference_index: &SurfaceIndex,
     n: usize,
+    seed: u64,
 ) -> (SideDistances, SideDistances) {
+    let mut rng = Pcg64::from_seed(seed);
+    let reference_samples = draw_samples(reference, n, &mut rng);
+    let mesh_samples = draw_samples(mesh, n, &mut rng);
     rayon::join(
-        || side_distances(mesh, n, SEED_MESH, reference_index),
-        || side_distances(reference, n, SEED_REFERENCE, mesh_index),
+        || side_distances(mesh, &mesh_samples, reference_index),
+        || side_distances(reference, &reference_samples, mesh_index),
     )
 }
 
@@ -174,45 +179,90 @@ pub(crate) fn two_sided(
 mod tests {
     use super::*;
 
-    #[test]
-    fn splitmix_stream_is_uniform_enough() {
-        let n = 100_000u64;
-        let mut bins = [0u32; 10];
-        let mut sum = 0.0;
-        for i in 0..n {
-            let u = unit(7, i);
-            assert!((0.0..1.0).contains(&u));
-            bins[(u * 10.0) as usize] += 1;
-            sum += u;
-        }
-        assert!((sum / n as f64 - 0.5).abs() < 0.005);
-        for b in bins {
-            assert!((b as f64 - 10_000.0).abs() < 500.0, "{bins:?}");
-        }
-        assert_ne!(splitmix64(1, 0), splitmix64(2, 0));
+    fn two_triangles() -> ([DVec3; 6], [[u32; 3]; 2]) {
+        (
+            [
+                DVec3::ZERO,
+                DVec3::X,
+                DVec3::Y,
+                DVec3::new(10.0, 0.0, 0.0),
+                DVec3::new(13.0, 0.0, 0.0),
+                DVec3::new(10.0, 1.0, 0.5),
+            ],
+            [[0, 1, 2], [3, 4, 5]],
+        )
     }
 
     #[test]
-    fn area_sampling_follows_area() {
-        // Two triangles, the second three times larger.
-        let positions = [
-            DVec3::ZERO,
-            DVec3::X,
-            DVec3::Y,
-            DVec3::new(10.0, 0.0, 0.0),
-            DVec3::new(13.0, 0.0, 0.0),
-            DVec3::new(10.0, 1.0, 0.0),
-        ];
-        let triangles = [[0, 1, 2], [3, 4, 5]];
+    fn samples_are_the_ones_quality_py_draws() {
+        // quality.sample_surface(V, F, 4, rng) and then, on the first
+        // triangle alone, sample_surface(V[:3], F[:1], 2, rng), with
+        // rng = numpy.random.default_rng(0), printed by NumPy 2.4.
+        let (positions, triangles) = two_triangles();
         let used = [true; 6];
         let side = Side {
             positions: &positions,
             triangles: &triangles,
             used: &used,
         };
-        let faces = sample_faces(&side, 40_000, 3);
-        let second = faces.iter().filter(|&&f| f == 1).count() as f64 / 40_000.0;
-        assert!((second - 0.75).abs() < 0.01, "{second}");
-        assert!(faces.windows(2).all(|w| w[0] <= w[1]));
+        let first = Side {
+            positions: &positions[..3],
+            triangles: &triangles[..1],
+            used: &used[..3],
+        };
+        let mut rng = Pcg64::from_seed(0);
+        let a = draw_samples(&side, 4, &mut rng);
+        let b = draw_samples(&first, 2, &mut rng);
+        let expected_a = [
+            (0, DVec3::new(0.14342582298969125, 0.6354424430008931, 0.0)),
+            (0, DVec3::new(0.851766739691968, 0.00233896862755748, 0.0)),
+            (
+                1,
+                DVec3::new(11.234697443195877, 0.49024915509360434, 0.24512457754680217),
+            ),
+            (
+                1,
+                DVec3::new(10.186091995559527, 0.8933517594360716, 0.4466758797180358),
+            ),
+        ];
+        let expected_b = [
+            (0, DVec3::new(0.11687238885157603, 0.7373263271565575, 0.0)),
+            (0, DVec3::new(0.19217951646169612, 0.22693338074209912, 0.0)),
+        ];
+        for (got, want) in a.iter().zip(&expected_a).chain(b.iter().zip(&expected_b)) {
+            assert_eq!(got.0, want.0);
+            assert!(
+                (got.1 - want.1).length() <= 1e-14 * want.1.length(),
+                "{got:?} {want:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn area_sampling_follows_area() {
+        // Two triangles; the second has 3·√1.25 times the area of the first.
+        let (positions, triangles) = two_triangles();
+        let used = [true; 6];
+        let side = Side {
+            positions: &positions,
+            triangles: &triangles,
+            used: &used,
+        };
+        let samples = draw_samples(&side, 40_000, &mut Pcg64::from_seed(3));
+        let share = samples.iter().filter(|s| s.0 == 1).count() as f64 / 40_000.0;
+        let expected = 3.0 * 1.25f64.sqrt() / (1.0 + 3.0 * 1.25f64.sqrt());
+        assert!((share - expected).abs() < 0.01, "{share} vs {expected}");
+        assert!(samples.windows(2).all(|w| w[0].0 <= w[1].0));
+    }
+
+    #[test]
+    fn no_area_no_samples() {
+        let positions = [DVec3::ZERO, DVec3::X, DVec3::X * 2.0];
+        let side = Side {
+            positions: &positions,
+            triangles: &[[0, 1, 2]],
+            used: &[true; 3],
+        };
+        assert!(draw_samples(&side, 10, &mut Pcg64::from_seed(0)).is_empty());
     }
 }

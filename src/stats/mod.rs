@@ -12,6 +12,7 @@
 //! Rocchini & Scopigno 1998) with exact point-to-mesh distances.
 
 mod distance;
+mod rng;
 mod topology;
 
 use std::collections::BTreeMap;
@@ -49,8 +50,12 @@ pub struct StatsOptions<'a> {
     pub reference: Option<&'a TriMesh>,
     /// A prebuilt index of `reference`, reused instead of building one.
     pub reference_index: Option<&'a SurfaceIndex>,
-    /// Area-uniform samples per side for the distance (vertices are added).
+    /// Area-uniform samples per side for the distance (vertices are added);
+    /// default 200,000, as `quality.py`.
     pub samples_per_side: usize,
+    /// Seed of the sample stream (NumPy's `default_rng(seed)`); default 0,
+    /// as `quality.py`'s `--seed`.
+    pub sample_seed: u64,
     /// What the mesh builder repaired, copied into the statistics.
     pub repairs: Option<RepairReport>,
     /// Per-vertex target edge length (adaptive sizing), one per position;
@@ -64,7 +69,8 @@ impl Default for StatsOptions<'_> {
             target_edge_length: None,
             reference: None,
             reference_index: None,
-            samples_per_side: 100_000,
+            samples_per_side: 200_000,
+            sample_seed: distance::DEFAULT_SEED,
             repairs: None,
             vertex_target: None,
         }
@@ -201,6 +207,9 @@ pub struct DistanceStats {
     pub reference_diagonal: f64,
     /// Area-uniform samples taken on each side (vertices come on top).
     pub samples_per_side: u64,
+    /// Seed of the sample stream: with the same seed and sample count,
+    /// `quality.py` draws the same points and reports the same distances.
+    pub seed: u64,
 }
 
 /// Quality statistics of one mesh. Faces with an out-of-range vertex index
@@ -360,8 +369,30 @@ fn chunked<A: Send + Clone>(
     parts.iter().fold(init, merge)
 }
 
-/// Computes the statistics of `mesh` (see [`MeshStats`] for the definitions).
+/// Computes the statistics of `mesh` (see [`MeshStats`] for the
+/// definitions). Like the benchmark, it describes the welded mesh
+/// ([`TriMesh::welded`]): coincident vertices count once, and repeated or
+/// index-degenerate faces are left out; the reference is welded the same
+/// way, so distance samples fall where `quality.py` puts them.
 pub fn compute(mesh: &TriMesh, opts: &StatsOptions) -> MeshStats {
+    let (welded, origin) = mesh.welded();
+    let targets: Option<Vec<f64>> = opts
+        .vertex_target
+        .filter(|t| t.len() == mesh.positions.len())
+        .map(|t| origin.iter().map(|&i| t[i as usize]).collect());
+    let reference = opts.reference.map(|r| r.welded().0);
+    compute_welded(
+        &welded,
+        &StatsOptions {
+            reference: reference.as_ref(),
+            vertex_target: targets.as_deref(),
+            ..*opts
+        },
+    )
+}
+
+/// [`compute`] on a mesh that is already welded.
+fn compute_welded(mesh: &TriMesh, opts: &StatsOptions) -> MeshStats {
     let pos = &mesh.positions;
     let nv = pos.len();
     let valid: Vec<[u32; 3]>;
@@ -661,6 +692,7 @@ fn distance_stats(
         },
         ref_index,
         n,
+        opts.sample_seed,
     );
     let count = (to_ref.count + from_ref.count).max(1) as f64;
     let hausdorff = to_ref.max.max(from_ref.max);
@@ -679,6 +711,7 @@ fn distance_stats(
         from_reference_max: from_ref.max,
         reference_diagonal: diag,
         samples_per_side: n as u64,
+        seed: opts.sample_seed,
     })
 }
 

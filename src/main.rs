@@ -210,6 +210,7 @@ fn stats_command(a: StatsArgs) -> Result<(), Failure> {
             target_edge_length: a.target_edge_length,
             reference: reference.as_ref(),
             repairs: Some(input.repairs),
+            features: Some(Default::default()),
             ..Default::default()
         },
     );

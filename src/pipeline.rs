@@ -6,6 +6,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::bvh::SurfaceIndex;
+use crate::features::FeatureOptions;
 use crate::io::{self, Format, ReadOptions, WriteOptions};
 use crate::mesh::{BuildError, Mesh, RepairReport, EDGE_FEATURE};
 use crate::remesh::{self, Observer, RemeshError, RemeshOptions, RemeshReport};
@@ -127,11 +128,17 @@ pub fn measure(
     let adaptive = options.sizing == remesh::Sizing::Adaptive;
     let l = out.report.target_edge_length;
     let index = SurfaceIndex::from_trimesh(&input_tm);
+    let features = Some(FeatureOptions {
+        preserve_features: options.preserve_features,
+        feature_angle_deg: options.feature_angle,
+        corner_angle_deg: options.corner_angle,
+    });
     let input_stats = stats::compute(
         &input_tm,
         &StatsOptions {
             target_edge_length: Some(l),
             repairs: Some(input.repairs),
+            features,
             ..Default::default()
         },
     );
@@ -143,6 +150,7 @@ pub fn measure(
             reference_index: Some(&index),
             samples_per_side: DISTANCE_SAMPLES,
             vertex_target: adaptive.then_some(out.vertex_target.as_slice()),
+            features,
             ..Default::default()
         },
     );

@@ -141,7 +141,7 @@ fn fidelity(
     let samples = features::edge_samples(&reference.positions, rfs.edges(), step);
     let uncovered = features::point_edge_distances(&samples, pos, fs.edges())
         .iter()
-        .filter(|&&d| !(d <= tol))
+        .filter(|&&d| d.is_nan() || d > tol)
         .count() as u64;
 
     let corner_tol = CORNER_TOLERANCE * reference.bbox_diagonal();

@@ -374,10 +374,10 @@ fn anchor_turns(features: &FeatureSet, size: &[f64], kind: &mut [u32]) -> u64 {
             fixed.insert(total.to_bits());
         }
         let near = |fixed: &BTreeSet<u64>, lo: f64, hi: f64| {
-            fixed
-                .range(lo.max(0.0).to_bits()..=hi.min(total).to_bits())
-                .next()
-                .is_some()
+            // `+ 0.0` turns −0 into +0 so the bits order like the values;
+            // `range` panics on an empty interval (NaN from non-finite input).
+            let (lo, hi) = (lo.max(0.0) + 0.0, hi.min(total));
+            lo <= hi && fixed.range(lo.to_bits()..=hi.to_bits()).next().is_some()
         };
         for (_, i) in candidates {
             let v = line.vertices[i] as usize;

@@ -1022,6 +1022,55 @@ pub fn polyline_distance(
     })
 }
 
+/// Points along every edge of (`points`, `edges`): both end points and
+/// every ≤ `step` in between, as [`polyline_distance`] samples them. Edges
+/// with out-of-range indices are skipped; a non-positive or non-finite
+/// `step` gives the end points only.
+pub fn edge_samples(points: &[DVec3], edges: &[[u32; 2]], step: f64) -> Vec<DVec3> {
+    let mut out = Vec::new();
+    for &[a, b] in edges {
+        let (Some(&pa), Some(&pb)) = (points.get(a as usize), points.get(b as usize)) else {
+            continue;
+        };
+        let len = (pb - pa).length();
+        let k = if step > 0.0 && step.is_finite() && len.is_finite() {
+            (len / step).ceil().clamp(1.0, u32::MAX as f64) as u64
+        } else {
+            1
+        };
+        out.extend((0..=k).map(|j| lerp_exact(pa, pb, j as f64 / k as f64)));
+    }
+    out
+}
+
+/// The exact distance of every query point to the nearest edge of
+/// (`to_points`, `to_edges`), in query order; infinite when there is no
+/// edge. Edges with out-of-range indices are skipped.
+pub fn point_edge_distances(
+    queries: &[DVec3],
+    to_points: &[DVec3],
+    to_edges: &[[u32; 2]],
+) -> Vec<f64> {
+    let to: Vec<[u32; 2]> = to_edges
+        .iter()
+        .filter(|e| e.iter().all(|&v| (v as usize) < to_points.len()))
+        .copied()
+        .collect();
+    if to.is_empty() {
+        return vec![f64::INFINITY; queries.len()];
+    }
+    let seg = |s: u32| {
+        let [a, b] = to[s as usize];
+        [to_points[a as usize], to_points[b as usize]]
+    };
+    let mut tree = SegTree::default();
+    let root = tree.build(to.len() as u32, seg);
+    queries
+        .par_iter()
+        .map(|&q| tree.nearest(root, q, Candidate::NONE, seg).d2.sqrt())
+        .collect()
+}
+
 /// The bench's `features` metric before dividing by L: distances from the
 /// `input`'s [`sharp_edges`] at `angle_deg`, sampled every ≤ `step` (the bench
 /// uses L/4), to the nearest edge of `output`. `None` when the input has no

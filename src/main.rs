@@ -219,6 +219,7 @@ fn stats_command(a: StatsArgs) -> Result<(), Failure> {
             samples_per_side: a.samples,
             sample_seed: a.seed,
             repairs: Some(input.repairs),
+            features: Some(Default::default()),
             ..Default::default()
         },
     );

@@ -6,6 +6,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::bvh::SurfaceIndex;
+use crate::features::FeatureOptions;
 use crate::io::{self, Format, ReadOptions, WriteOptions};
 use crate::mesh::{BuildError, Mesh, RepairReport, EDGE_FEATURE};
 use crate::remesh::{self, Observer, RemeshError, RemeshOptions, RemeshReport};
@@ -144,11 +145,17 @@ pub fn measure(
     // The repaired surface (no degenerate faces) answers the distance
     // queries; it is the same surface as the source's.
     let index = SurfaceIndex::from_trimesh(&input.mesh.to_trimesh());
+    let features = Some(FeatureOptions {
+        preserve_features: options.preserve_features,
+        feature_angle_deg: options.feature_angle,
+        corner_angle_deg: options.corner_angle,
+    });
     let input_stats = stats::compute(
         input_tm,
         &StatsOptions {
             target_edge_length: Some(l),
             repairs: Some(input.repairs),
+            features,
             ..Default::default()
         },
     );
@@ -160,6 +167,7 @@ pub fn measure(
             reference_index: Some(&index),
             samples_per_side: DISTANCE_SAMPLES,
             vertex_target: adaptive.then_some(out.vertex_target.as_slice()),
+            features,
             ..Default::default()
         },
     );

@@ -63,9 +63,9 @@ fn fandisk_corners_stay_and_creases_stay_close() {
     let out = run(&input, l);
     assert_corners_kept(&tin, &out);
     let d = features::sharp_edge_distance(&tin, &out, 45.0, l / 4.0).unwrap();
-    // Measured 0.034 L: output chords cut the 22.5° turns of the input's
-    // tessellated arcs. The goal is 0.01 L; this pins today's figure.
-    assert!(d.max <= 0.05 * l, "feature distance {} L", d.max / l);
+    // The input's arcs turn by up to 22.5° at vertices 1.3–2.1 L apart;
+    // without a vertex on each turn the output's chords cut it by 0.034 L.
+    assert!(d.max <= 0.01 * l, "feature distance {} L", d.max / l);
     assert!(
         d.mean <= 0.002 * l,
         "mean feature distance {} L",
@@ -151,4 +151,31 @@ fn material_borders_stay_crack_free() {
             }
         }
     }
+}
+
+#[test]
+fn line_vertices_are_fixed_only_where_a_chord_would_cut_the_turn() {
+    let l = 0.12;
+    let run_cylinder = |segments: u32| {
+        let (input, _) = Mesh::from_trimesh(&shapes::open_cylinder(1.0, 2.0, segments, 6)).unwrap();
+        let out = remesh(
+            &input,
+            &RemeshOptions::default().with_target_edge_length(l),
+            &mut NoObserver,
+        )
+        .unwrap();
+        out.mesh.validate().unwrap();
+        (input.to_trimesh(), out)
+    };
+    // A 48-gon of radius 1 has 0.13-long sides turning by 7.5°: a 4/3·L chord
+    // across a rim vertex would pass 0.044 L from it, so all 96 rim vertices
+    // stay (they are 1.09 L apart, more than the collapse length).
+    let (tin, out) = run_cylinder(48);
+    assert_eq!(out.report.fixed_turns, 96);
+    let d = features::boundary_distance(&tin, &out.mesh.to_trimesh(), l / 4.0).unwrap();
+    assert!(d.max <= 1e-9, "boundary distance {} L", d.max / l);
+    // A 480-gon turns by 0.75° every 0.11 L: a chord across one vertex cuts
+    // the turn by 0.0007 L, so the rim is free to be resampled.
+    let (_, out) = run_cylinder(480);
+    assert_eq!(out.report.fixed_turns, 0);
 }

@@ -171,6 +171,11 @@ pub struct RemeshReport {
     pub corners: u64,
     /// Feature lines found on the input.
     pub feature_lines: u64,
+    /// Feature-line vertices of the input kept fixed, like corners, because
+    /// the line turns there by more than an output chord may cut (see the
+    /// turn rule in the remesher's state).
+    #[serde(default)]
+    pub fixed_turns: u64,
     /// Counts per iteration.
     pub iterations: Vec<IterationReport>,
     /// Time per pass.
@@ -246,6 +251,7 @@ fn run(
         feature_edges: st.features.edges().len() as u64,
         corners: st.features.corners().len() as u64,
         feature_lines: st.features.lines().len() as u64,
+        fixed_turns: st.fixed_turns,
         ..Default::default()
     };
     report.seconds.prepare = start.elapsed().as_secs_f64();

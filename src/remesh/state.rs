@@ -49,6 +49,8 @@ pub(super) struct State {
     pub vertex_face_start: Vec<u32>,
     /// Faces around each input vertex, grouped by vertex.
     pub vertex_faces: Vec<u32>,
+    /// Feature-line vertices kept fixed where the input's line turns.
+    pub fixed_turns: u64,
     /// The worker pool of the parallel passes.
     pub pool: std::sync::Arc<rayon::ThreadPool>,
 }
@@ -67,6 +69,7 @@ pub(super) struct PartialState {
     input_normals: Vec<DVec3>,
     vertex_face_start: Vec<u32>,
     vertex_faces: Vec<u32>,
+    fixed_turns: u64,
 }
 
 impl State {
@@ -89,6 +92,7 @@ impl State {
             input_normals: p.input_normals,
             vertex_face_start: p.vertex_face_start,
             vertex_faces: p.vertex_faces,
+            fixed_turns: p.fixed_turns,
             pool: std::sync::Arc::new(pool),
         })
     }
@@ -164,6 +168,7 @@ impl State {
         if options.preserve_features {
             anchor_tips(&mesh, &mut kind);
         }
+        let fixed_turns = anchor_turns(&features, &size, &mut kind);
         let mut hint_face = vec![0u32; nv];
         for f in mesh.faces() {
             for v in mesh.face_vertices(f) {
@@ -184,6 +189,7 @@ impl State {
             .collect();
         let (vertex_face_start, vertex_faces) = vertex_face_csr(&tm);
         Ok(PartialState {
+            fixed_turns,
             vertex_face_start,
             vertex_faces,
             mesh,
@@ -295,6 +301,100 @@ fn anchor_tips(mesh: &Mesh, kind: &mut [u32]) {
             kind[v.idx()] = CORNER;
         }
     }
+}
+
+/// Largest sag, in units of the local target length, that an output chord
+/// may leave across an input feature vertex before that vertex is kept.
+const TURN_SAG: f64 = 0.005;
+
+/// Keeps the feature-line vertices where the input's polyline turns enough
+/// that an output chord across them would cut the turn by more than
+/// [`TURN_SAG`]·L.
+///
+/// Output feature vertices lie on the input's polyline, so between two of
+/// them the output runs straight while the input may bend at an input vertex
+/// (a tessellated arc turns by a few degrees at each vertex, fandisk's by up
+/// to 22.5°). The worst chord across a vertex `v` has its end points on the
+/// two segments at `v`, at most 2/3·L from `v` each (an output edge is at most
+/// 4/3·L long); when its distance from `v` exceeds the tolerance, `v` keeps
+/// its input position. Because the chord's end points are capped by the
+/// segment lengths, a finely tessellated curve never pins its vertices: the
+/// rule only fires where the input's segments are long enough for the
+/// output to cut the turn. Candidates are taken by decreasing sag and a
+/// vertex closer than 4/5·L (the collapse length) along its line to a kept
+/// vertex or a corner is left free, so no feature edge is forced below the
+/// collapse length by two fixed ends. Returns the number of vertices kept.
+fn anchor_turns(features: &FeatureSet, size: &[f64], kind: &mut [u32]) -> u64 {
+    use std::collections::BTreeSet;
+    let mut count = 0;
+    for (id, line) in features.lines().iter().enumerate() {
+        let pts = features.line_points(id as u32);
+        let n = line.vertices.len();
+        if n < 3 {
+            continue;
+        }
+        let closed = line.is_closed();
+        let mut arc = vec![0.0f64; n];
+        for i in 1..n {
+            arc[i] = arc[i - 1] + pts[i].distance(pts[i - 1]);
+        }
+        let total = arc[n - 1];
+        // Interior vertices, plus the loop's start when the loop has no corner.
+        let start_free = closed && kind[line.vertices[0] as usize] == id as u32;
+        let mut candidates: Vec<(f64, usize)> = Vec::new();
+        for i in (if start_free { 0 } else { 1 })..n - 1 {
+            let v = line.vertices[i] as usize;
+            if kind[v] != id as u32 {
+                continue;
+            }
+            let prev = if i == 0 { pts[n - 2] } else { pts[i - 1] };
+            let (p, next) = (pts[i], pts[i + 1]);
+            let cap = 0.5 * SPLIT_FACTOR * size[v];
+            let (din, dout) = (p - prev, next - p);
+            let (lin, lout) = (din.length(), dout.length());
+            if lin <= 0.0 || lout <= 0.0 {
+                continue;
+            }
+            let a = p - din * (lin.min(cap) / lin);
+            let b = p + dout * (lout.min(cap) / lout);
+            let ab = b - a;
+            let sag = (p - a).cross(ab).length() / ab.length();
+            if sag > TURN_SAG * size[v] {
+                candidates.push((sag / size[v], i));
+            }
+        }
+        if candidates.is_empty() {
+            continue;
+        }
+        candidates.sort_by(|x, y| y.0.total_cmp(&x.0).then(x.1.cmp(&y.1)));
+        // Arc positions of fixed vertices (non-negative floats order like their bits).
+        let mut fixed: BTreeSet<u64> = BTreeSet::new();
+        if !start_free {
+            fixed.insert(0f64.to_bits());
+            fixed.insert(total.to_bits());
+        }
+        let near = |fixed: &BTreeSet<u64>, lo: f64, hi: f64| {
+            // `+ 0.0` turns −0 into +0 so the bits order like the values;
+            // `range` panics on an empty interval (NaN from non-finite input).
+            let (lo, hi) = (lo.max(0.0) + 0.0, hi.min(total));
+            lo <= hi && fixed.range(lo.to_bits()..=hi.to_bits()).next().is_some()
+        };
+        for (_, i) in candidates {
+            let v = line.vertices[i] as usize;
+            let (s, r) = (arc[i], COLLAPSE_FACTOR * size[v]);
+            let mut taken = near(&fixed, s - r, s + r);
+            if closed {
+                taken |= s - r < 0.0 && near(&fixed, s - r + total, total);
+                taken |= s + r > total && near(&fixed, 0.0, s + r - total);
+            }
+            if !taken {
+                fixed.insert(s.to_bits());
+                kind[v] = CORNER;
+                count += 1;
+            }
+        }
+    }
+    count
 }
 
 /// Faces around each vertex of `tm`, in compressed rows.

@@ -9,11 +9,15 @@
 //! benchmark measures: the edge band [4/5·L, 4/3·L] is the split/collapse
 //! band of Botsch & Kobbelt (2004); triangle quality is
 //! q = 4√3·area/(a²+b²+c²); distances are sampled as in Metro (Cignoni,
-//! Rocchini & Scopigno 1998) with exact point-to-mesh distances.
+//! Rocchini & Scopigno 1998) with exact point-to-mesh distances; the
+//! `features` section follows the bench's `features` metric.
 
 mod distance;
+mod features;
 mod rng;
 mod topology;
+
+pub use features::{FeatureFidelity, FeatureStats, CORNER_TOLERANCE, ON_LINE_TOLERANCE};
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -61,6 +65,9 @@ pub struct StatsOptions<'a> {
     /// Per-vertex target edge length (adaptive sizing), one per position;
     /// ignored when its length differs from the vertex count.
     pub vertex_target: Option<&'a [f64]>,
+    /// Detect features with these options and report the `features`
+    /// section (with its fidelity to `reference`, if given).
+    pub features: Option<crate::features::FeatureOptions>,
 }
 
 impl Default for StatsOptions<'_> {
@@ -73,6 +80,7 @@ impl Default for StatsOptions<'_> {
             sample_seed: distance::DEFAULT_SEED,
             repairs: None,
             vertex_target: None,
+            features: None,
         }
     }
 }
@@ -254,6 +262,10 @@ pub struct MeshStats {
     /// What the builder repaired (present only when given).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub repairs: Option<RepairReport>,
+    /// Sharp features and their fidelity to the reference (present only
+    /// when feature options were given).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub features: Option<FeatureStats>,
 }
 
 /// Per-face figures of one chunk, merged in chunk order.
@@ -508,6 +520,16 @@ fn compute_welded(mesh: &TriMesh, opts: &StatsOptions) -> MeshStats {
         .reference
         .and_then(|r| distance_stats(mesh, tris, &used, r, opts));
 
+    // --- features ---------------------------------------------------------------
+    let features = opts.features.map(|fo| {
+        features::feature_stats(
+            mesh,
+            &fo,
+            opts.reference,
+            edge_length.as_ref().map(|e| e.target),
+        )
+    });
+
     MeshStats {
         vertices: nv as u64,
         faces: nf as u64,
@@ -526,6 +548,7 @@ fn compute_welded(mesh: &TriMesh, opts: &StatsOptions) -> MeshStats {
         triangle_quality,
         distance,
         repairs: opts.repairs,
+        features,
     }
 }
 
@@ -816,6 +839,28 @@ impl MeshStats {
                 100.0 * d.rms_relative,
                 d.samples_per_side,
             );
+        }
+        if let Some(f) = &self.features {
+            let _ = writeln!(
+                s,
+                "features  {} feature edges ({} sharp at {}°), {} corners, {} lines",
+                f.edges, f.sharp_edges, f.feature_angle_deg, f.corners, f.lines,
+            );
+            if let Some(x) = &f.fidelity {
+                let _ = writeln!(
+                    s,
+                    "fidelity  crease distance max {} L, mean {} L; corners kept {}/{}; feature edges on input lines {}/{}, max offset {} L; input feature samples off the output's feature edges {}/{}",
+                    opt(x.sharp_distance_max_over_l, 4),
+                    opt(x.sharp_distance_mean_over_l, 5),
+                    x.corners_kept,
+                    x.reference_corners,
+                    x.edges_on_reference_lines,
+                    f.edges,
+                    opt(x.max_offset_over_l, 4),
+                    x.uncovered_samples,
+                    x.reference_samples,
+                );
+            }
         }
         if let Some(r) = &self.repairs {
             let _ = writeln!(

@@ -236,7 +236,7 @@ pub fn cone_target_length(defect: f64, tolerance: f64) -> f64 {
     if c >= 1.0 {
         return f64::INFINITY;
     }
-    if !(c > 0.0) {
+    if c.is_nan() || c <= 0.0 {
         return 0.0;
     }
     let tan = (1.0 - c * c).sqrt() / c;

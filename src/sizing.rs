@@ -247,78 +247,63 @@ pub fn cone_target_length(defect: f64, tolerance: f64) -> f64 {
 /// consistently oriented, non-feature edges at it and, at a vertex all of
 /// whose edges are such edges, its [`cone_target_length`] (`+∞` where the
 /// input is flat).
-fn crease_bounds(
-    mesh: &TriMesh,
-    is_feature_edge: Option<FeatureEdgeFn>,
-    tolerance: f64,
-) -> Vec<f64> {
+fn crease_bounds(mesh: &TriMesh, topo: &Topology, tolerance: f64) -> Vec<f64> {
     use rayon::prelude::*;
     let pos = &mesh.positions;
     let tri = &mesh.triangles;
-    let normal = |f: usize| {
-        let [a, b, c] = tri[f].map(|i| pos[i as usize]);
-        (b - a).cross(c - a).normalize_or_zero()
-    };
-    // (lo, hi, face, forward) for every edge of every proper face, sorted so
-    // that the faces around one undirected edge are adjacent.
-    let mut half: Vec<(u32, u32, u32, bool)> = tri
-        .iter()
-        .enumerate()
-        .filter(|(_, t)| t[0] != t[1] && t[1] != t[2] && t[2] != t[0])
-        .flat_map(|(f, t)| {
-            (0..3).map(move |k| {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                (a.min(b), a.max(b), f as u32, a < b)
-            })
+    let normals: Vec<DVec3> = tri
+        .par_iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| pos[i as usize]);
+            (b - a).cross(c - a).normalize_or_zero()
         })
         .collect();
-    half.par_sort_unstable();
+    let per_edge: Vec<f64> = topo
+        .smooth_edges
+        .par_iter()
+        .map(|&[_, _, f0, f1]| {
+            let (n0, n1) = (normals[f0 as usize], normals[f1 as usize]);
+            if n0 == DVec3::ZERO || n1 == DVec3::ZERO {
+                f64::INFINITY
+            } else {
+                crease_target_length(n0.angle_between(n1), tolerance)
+            }
+        })
+        .collect();
     let mut bound = vec![f64::INFINITY; pos.len()];
-    // Vertices on a boundary, feature, non-manifold or flipped edge: no cone.
-    let mut on_curve = vec![false; pos.len()];
-    let mut i = 0;
-    while i < half.len() {
-        let (lo, hi) = (half[i].0, half[i].1);
-        let mut j = i + 1;
-        while j < half.len() && half[j].0 == lo && half[j].1 == hi {
-            j += 1;
-        }
-        if j == i + 2 && half[i].3 != half[i + 1].3 && !is_feature_edge.is_some_and(|p| p(lo, hi)) {
-            let (n0, n1) = (normal(half[i].2 as usize), normal(half[i + 1].2 as usize));
-            if n0 != DVec3::ZERO && n1 != DVec3::ZERO {
-                let h = crease_target_length(n0.angle_between(n1), tolerance);
-                for v in [lo, hi] {
-                    let b = &mut bound[v as usize];
-                    *b = b.min(h);
-                }
-            }
-        } else {
-            for v in [lo, hi] {
-                on_curve[v as usize] = true;
-            }
-        }
-        i = j;
-    }
-    let mut angle_sum = vec![0.0f64; pos.len()];
-    for t in tri {
-        if t[0] == t[1] || t[1] == t[2] || t[2] == t[0] {
-            continue;
-        }
-        for k in 0..3 {
-            let p = pos[t[k] as usize];
-            let a = pos[t[(k + 1) % 3] as usize] - p;
-            let b = pos[t[(k + 2) % 3] as usize] - p;
-            angle_sum[t[k] as usize] += a.angle_between(b);
+    // A closed fan of k faces has k edges: the vertex is a cone candidate
+    // when all of them are smooth edges (none on a boundary, feature,
+    // non-manifold or inconsistently oriented edge).
+    let mut smooth_count = vec![0u32; pos.len()];
+    for (e, &h) in topo.smooth_edges.iter().zip(&per_edge) {
+        for v in [e[0], e[1]] {
+            let b = &mut bound[v as usize];
+            *b = b.min(h);
+            smooth_count[v as usize] += 1;
         }
     }
-    for (v, b) in bound.iter_mut().enumerate() {
-        if !on_curve[v] && angle_sum[v] > 0.0 {
-            *b = b.min(cone_target_length(
-                std::f64::consts::TAU - angle_sum[v],
-                tolerance,
-            ));
+    bound.par_iter_mut().enumerate().for_each(|(v, b)| {
+        let corners = topo.vertex_corners(v);
+        // One sector: a pinch vertex joining two closed fans is no cone.
+        if corners.is_empty()
+            || smooth_count[v] as usize != corners.len()
+            || topo.sectors_at(v) != 1
+        {
+            return;
         }
-    }
+        let p = pos[v];
+        let sum: f64 = corners
+            .iter()
+            .map(|&c| {
+                let t = &tri[(c / 3) as usize];
+                let k = (c % 3) as usize;
+                let a = pos[t[(k + 1) % 3] as usize] - p;
+                let b = pos[t[(k + 2) % 3] as usize] - p;
+                a.angle_between(b)
+            })
+            .sum();
+        *b = b.min(cone_target_length(std::f64::consts::TAU - sum, tolerance));
+    });
     bound
 }
 
@@ -352,13 +337,7 @@ impl SizingField {
             });
         }
         let topo = Topology::new(mesh, is_feature_edge)?;
-        Ok(Self::from_parts(
-            mesh,
-            &topo,
-            curvature,
-            opts,
-            is_feature_edge,
-        ))
+        Ok(Self::from_parts(mesh, &topo, curvature, opts))
     }
 
     /// Estimates curvature ([`crate::curvature`]) and builds the field in one
@@ -372,13 +351,7 @@ impl SizingField {
         opts.validate()?;
         let topo = Topology::new(mesh, is_feature_edge)?;
         let curvature = curvatures_on(mesh, &topo, curvature_opts);
-        Ok(Self::from_parts(
-            mesh,
-            &topo,
-            &curvature,
-            opts,
-            is_feature_edge,
-        ))
+        Ok(Self::from_parts(mesh, &topo, &curvature, opts))
     }
 
     fn from_parts(
@@ -386,14 +359,13 @@ impl SizingField {
         topo: &Topology,
         curvature: &[Curvature],
         opts: &SizingOptions,
-        is_feature_edge: Option<FeatureEdgeFn>,
     ) -> Self {
         use rayon::prelude::*;
         let eps = opts.tolerance;
         let (lo, hi) = (opts.min_edge_length, opts.max_edge_length);
         let curve = curve_curvature_on(mesh, topo);
         let crease = if opts.crease_bound {
-            crease_bounds(mesh, is_feature_edge, eps)
+            crease_bounds(mesh, topo, eps)
         } else {
             vec![f64::INFINITY; mesh.positions.len()]
         };

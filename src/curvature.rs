@@ -193,6 +193,9 @@ pub(crate) struct Topology {
     corner_sector: Vec<u32>,
     /// Boundary, feature and non-manifold edges, as `[lo, hi]`.
     pub(crate) curve_edges: Vec<[u32; 2]>,
+    /// Interior, consistently oriented, non-feature edges as `[lo, hi, f0, f1]`
+    /// with their two faces (the sizing field's crease bound).
+    pub(crate) smooth_edges: Vec<[u32; 4]>,
 }
 
 /// One directed face edge, stored under its smaller endpoint.
@@ -309,6 +312,7 @@ impl Topology {
 
         let mut parent: Vec<u32> = (0..3 * nf as u32).collect();
         let mut curve_edges = Vec::new();
+        let mut smooth_edges = Vec::new();
         for lo in 0..nv {
             let bucket = &mut half_edges[edge_start[lo] as usize..edge_start[lo + 1] as usize];
             bucket.sort_unstable_by_key(|h| h.hi);
@@ -339,6 +343,7 @@ impl Topology {
                             };
                             union(&mut parent, at(h0, lo), at(h1, lo));
                             union(&mut parent, at(h0, hi), at(h1, hi));
+                            smooth_edges.push([lo, hi, h0.corner / 3, h1.corner / 3]);
                         }
                     }
                     _ => curve_edges.push([lo, hi]),
@@ -406,6 +411,7 @@ impl Topology {
             vertex_sector_start,
             corner_sector,
             curve_edges,
+            smooth_edges,
         })
     }
 
@@ -415,6 +421,11 @@ impl Topology {
 
     fn sector_corners(&self, s: usize) -> &[u32] {
         &self.corners[self.sector_start[s] as usize..self.sector_start[s + 1] as usize]
+    }
+
+    /// Number of sectors at vertex `v`.
+    pub(crate) fn sectors_at(&self, v: usize) -> usize {
+        (self.vertex_sector_start[v + 1] - self.vertex_sector_start[v]) as usize
     }
 
     /// Corners around vertex `v` (all sectors).

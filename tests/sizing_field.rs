@@ -4,8 +4,8 @@
 use glam::DVec3;
 use isoremesh::curvature::{principal_curvatures, CurvatureOptions};
 use isoremesh::sizing::{
-    target_length, SizingError, SizingField, SizingOptions, DEFAULT_GRADATION,
-    DEFAULT_MAX_EDGE_FRACTION, DEFAULT_RELATIVE_TOLERANCE,
+    cone_target_length, crease_target_length, target_length, SizingError, SizingField,
+    SizingOptions, DEFAULT_GRADATION, DEFAULT_MAX_EDGE_FRACTION, DEFAULT_RELATIVE_TOLERANCE,
 };
 use isoremesh::{shapes, TriMesh};
 
@@ -19,6 +19,8 @@ fn wide(tolerance: f64) -> SizingOptions {
         min_edge_length: 1e-6,
         max_edge_length: 1e3,
         gradation: DEFAULT_GRADATION,
+        // The closed forms are those of the smooth surface the mesh samples.
+        crease_bound: false,
     }
 }
 
@@ -71,6 +73,64 @@ fn cylinder_side_is_sized_by_its_radius() {
 }
 
 #[test]
+fn coarse_input_creases_bound_the_size() {
+    use std::f64::consts::PI;
+    // A 12-sided prism: neighbouring side faces meet at 30°, everything else
+    // is flat. A chord across a side edge cuts it by (ℓ/2)·tan(15°).
+    let n = 12;
+    let mesh = shapes::open_cylinder(0.5, 1.0, n, 4);
+    let eps = 2e-3;
+    let expected = 2.0 * eps / (PI / n as f64).tan();
+    assert!((crease_target_length(2.0 * PI / n as f64, eps) / expected - 1.0).abs() < 1e-12);
+    let on = SizingOptions {
+        crease_bound: true,
+        ..wide(eps)
+    };
+    for h in field(&mesh, &on).vertex_sizes() {
+        assert!((h / expected - 1.0).abs() < 1e-9, "{h} vs {expected}");
+    }
+    // Without it, the smooth bound of the cylinder the prism samples gives
+    // edges whose crossing of a side edge exceeds 2ε.
+    for h in field(&mesh, &wide(eps)).vertex_sizes() {
+        assert!(0.5 * h * (PI / n as f64).tan() > 2.0 * eps, "{h}");
+    }
+    // A fine tessellation of the same cylinder: the bound does not bind.
+    let fine = shapes::open_cylinder(0.5, 1.0, 96, 32);
+    let on = SizingOptions {
+        crease_bound: true,
+        ..wide(eps)
+    };
+    assert_eq!(
+        field(&fine, &on).vertex_sizes(),
+        field(&fine, &wide(eps)).vertex_sizes()
+    );
+    assert_eq!(crease_target_length(0.0, eps), f64::INFINITY);
+    assert_eq!(crease_target_length(PI, eps), 0.0);
+}
+
+#[test]
+fn icosahedron_vertices_get_the_cone_bound() {
+    // Defect π/3 at every vertex: cos α = 5/6, tan α = √11/5, so the cone
+    // bound √3·ε·5/√11 ≈ 2.61ε is below the crease bound 2ε/tan(20.9°) ≈ 5.24ε.
+    let mesh = shapes::icosphere(0);
+    let eps = 1e-3;
+    let expected = 3f64.sqrt() * eps * 5.0 / 11f64.sqrt();
+    assert!((cone_target_length(std::f64::consts::FRAC_PI_3, eps) / expected - 1.0).abs() < 1e-12);
+    assert!((cone_target_length(-std::f64::consts::FRAC_PI_3, eps) / expected - 1.0).abs() < 1e-12);
+    assert_eq!(cone_target_length(0.0, eps), f64::INFINITY);
+    let on = SizingOptions {
+        crease_bound: true,
+        ..wide(eps)
+    };
+    for h in field(&mesh, &on).vertex_sizes() {
+        assert!((h / expected - 1.0).abs() < 1e-9, "{h} vs {expected}");
+    }
+    for h in field(&mesh, &wide(eps)).vertex_sizes() {
+        assert!(*h > 10.0 * expected, "{h}");
+    }
+}
+
+#[test]
 fn sizes_are_clamped_to_min_and_max() {
     let mesh = shapes::icosphere(3);
     // κ = 1 ≥ 2/ε: the sphere is smaller than the tolerance.
@@ -79,6 +139,7 @@ fn sizes_are_clamped_to_min_and_max() {
         min_edge_length: 0.07,
         max_edge_length: 1.0,
         gradation: 0.3,
+        crease_bound: true,
     };
     assert_eq!(target_length(1.0, 2.5), 0.0);
     assert!(field(&mesh, &opts)
@@ -91,6 +152,7 @@ fn sizes_are_clamped_to_min_and_max() {
         min_edge_length: 0.01,
         max_edge_length: 0.2,
         gradation: 0.3,
+        crease_bound: true,
     };
     assert!(target_length(1.0, 0.1) > 0.7);
     assert!(field(&mesh, &opts).vertex_sizes().iter().all(|&h| h == 0.2));
@@ -115,6 +177,7 @@ fn gradation_is_exact_on_every_edge() {
         min_edge_length: 1e-3,
         max_edge_length: 0.5,
         gradation: g,
+        crease_bound: true,
     };
     let raw = field(
         &mesh,

@@ -96,8 +96,11 @@ struct RemeshArgs {
     #[arg(long)]
     adaptive: bool,
     /// Adaptive sizing: absolute tolerance (default 0.1 % of the diagonal).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "tolerance_ratio")]
     tolerance: Option<f64>,
+    /// Adaptive sizing: tolerance as a fraction of the bounding-box diagonal.
+    #[arg(long)]
+    tolerance_ratio: Option<f64>,
     /// Adaptive sizing: smallest target length.
     #[arg(long)]
     min_edge_length: Option<f64>,
@@ -265,6 +268,7 @@ fn remesh_command(a: RemeshArgs) -> Result<(), Failure> {
         preserve_features: a.preserve_features.unwrap_or(!a.no_features),
         threads: a.threads,
         tolerance: a.tolerance,
+        tolerance_ratio: a.tolerance_ratio,
         min_edge_length: a.min_edge_length,
         max_edge_length: a.max_edge_length,
         ..Default::default()

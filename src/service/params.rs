@@ -14,7 +14,7 @@ use crate::remesh::{RemeshOptions, Sizing};
 use crate::sizing::{DEFAULT_MIN_EDGE_FACTOR, DEFAULT_RELATIVE_TOLERANCE};
 
 /// Every accepted parameter name.
-pub const PARAM_NAMES: [&str; 13] = [
+pub const PARAM_NAMES: [&str; 14] = [
     "target_edge_length",
     "target_edge_ratio",
     "target_faces",
@@ -24,6 +24,7 @@ pub const PARAM_NAMES: [&str; 13] = [
     "feature_angle",
     "sizing",
     "tolerance",
+    "tolerance_ratio",
     "min_edge_length",
     "max_edge_length",
     "gradation",
@@ -52,6 +53,8 @@ pub struct JobParams {
     pub sizing: Sizing,
     /// Adaptive sizing: absolute tolerance.
     pub tolerance: Option<f64>,
+    /// Adaptive sizing: tolerance as a fraction of the bounding-box diagonal.
+    pub tolerance_ratio: Option<f64>,
     /// Adaptive sizing: smallest target length.
     pub min_edge_length: Option<f64>,
     /// Adaptive sizing: largest target length.
@@ -75,6 +78,7 @@ impl Default for JobParams {
             feature_angle: o.feature_angle,
             sizing: o.sizing,
             tolerance: None,
+            tolerance_ratio: None,
             min_edge_length: None,
             max_edge_length: None,
             gradation: o.gradation,
@@ -140,6 +144,7 @@ impl JobParams {
                 "feature_angle" => p.feature_angle = typed(k, v)?,
                 "sizing" => p.sizing = typed(k, v)?,
                 "tolerance" => p.tolerance = Some(typed(k, v)?),
+                "tolerance_ratio" => p.tolerance_ratio = Some(typed(k, v)?),
                 "min_edge_length" => p.min_edge_length = Some(typed(k, v)?),
                 "max_edge_length" => p.max_edge_length = Some(typed(k, v)?),
                 "gradation" => p.gradation = typed(k, v)?,
@@ -170,6 +175,7 @@ impl JobParams {
             feature_angle: self.feature_angle,
             sizing: self.sizing,
             tolerance: self.tolerance,
+            tolerance_ratio: self.tolerance_ratio,
             min_edge_length: self.min_edge_length,
             max_edge_length: self.max_edge_length,
             gradation: self.gradation,
@@ -224,8 +230,8 @@ pub struct Estimate {
 /// diagonal, area from `target_faces`, or the mean edge length). Adaptive
 /// sizing uses the smallest target the sizing field may assign:
 /// `min_edge_length`, else the tolerance-derived minimum
-/// (`DEFAULT_MIN_EDGE_FACTOR` × ε with ε = `tolerance` or 0.1 % of the
-/// diagonal). That bounds the count from above, since flat regions get
+/// (`DEFAULT_MIN_EDGE_FACTOR` × ε with ε = `tolerance`, or `tolerance_ratio`
+/// (default 0.1 %) of the diagonal). That bounds the count from above, since flat regions get
 /// longer edges; the engine re-checks with the real field before it allocates.
 pub fn estimate_output(g: &InputGeometry, o: &RemeshOptions) -> Estimate {
     let (l, field) = match o.sizing {
@@ -246,9 +252,9 @@ pub fn estimate_output(g: &InputGeometry, o: &RemeshOptions) -> Estimate {
         Sizing::Adaptive => match o.min_edge_length {
             Some(a) => (a, "min_edge_length"),
             None => {
-                let eps = o
-                    .tolerance
-                    .unwrap_or(DEFAULT_RELATIVE_TOLERANCE * g.bbox_diagonal);
+                let eps = o.tolerance.unwrap_or(
+                    o.tolerance_ratio.unwrap_or(DEFAULT_RELATIVE_TOLERANCE) * g.bbox_diagonal,
+                );
                 (DEFAULT_MIN_EDGE_FACTOR * eps, "tolerance")
             }
         },
@@ -329,5 +335,33 @@ mod tests {
         let e = estimate_output(&g, &o);
         assert_eq!(e.field, "tolerance");
         assert!((e.edge_length - 0.01 * DEFAULT_MIN_EDGE_FACTOR).abs() < 1e-12);
+        // A relative tolerance scales with the diagonal.
+        o.tolerance = None;
+        o.tolerance_ratio = Some(0.01);
+        let e = estimate_output(&g, &o);
+        assert!((e.edge_length - 0.01 * 3f64.sqrt() * DEFAULT_MIN_EDGE_FACTOR).abs() < 1e-12);
+    }
+
+    #[test]
+    fn tolerance_ratio_is_a_parameter_and_excludes_tolerance() {
+        let p = JobParams::from_json(
+            &serde_json::json!({"sizing": "adaptive", "tolerance_ratio": 0.002}),
+        )
+        .unwrap();
+        assert_eq!(p.tolerance_ratio, Some(0.002));
+        assert_eq!(
+            p.to_options(1, 1 << 30).unwrap().tolerance_ratio,
+            Some(0.002)
+        );
+        let both = JobParams::from_json(&serde_json::json!({
+            "sizing": "adaptive", "tolerance": 0.01, "tolerance_ratio": 0.002
+        }))
+        .unwrap();
+        assert_eq!(
+            both.to_options(1, 1 << 30).unwrap_err().field.as_deref(),
+            Some("tolerance")
+        );
+        let e = JobParams::from_json(&serde_json::json!({"tolerance_ratio": "x"})).unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("tolerance_ratio"));
     }
 }

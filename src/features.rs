@@ -966,59 +966,15 @@ pub fn polyline_distance(
     to_points: &[DVec3],
     to_edges: &[[u32; 2]],
 ) -> Option<PolylineDistance> {
-    let in_range = |pts: &[DVec3], e: &[u32; 2]| e.iter().all(|&v| (v as usize) < pts.len());
-    let from: Vec<[u32; 2]> = from_edges
-        .iter()
-        .filter(|e| in_range(from_points, e))
-        .copied()
-        .collect();
-    if from.is_empty() {
+    let samples = edge_samples(from_points, from_edges, step);
+    if samples.is_empty() {
         return None;
     }
-    let to: Vec<[u32; 2]> = to_edges
-        .iter()
-        .filter(|e| in_range(to_points, e))
-        .copied()
-        .collect();
-    let seg = |s: u32| {
-        let [a, b] = to[s as usize];
-        [to_points[a as usize], to_points[b as usize]]
-    };
-    let mut tree = SegTree::default();
-    let root = if to.is_empty() {
-        None
-    } else {
-        Some(tree.build(to.len() as u32, seg))
-    };
-    let (max, sum, samples) = from
-        .par_iter()
-        .map(|&[a, b]| {
-            let (pa, pb) = (from_points[a as usize], from_points[b as usize]);
-            let len = (pb - pa).length();
-            let k = if step > 0.0 && step.is_finite() && len.is_finite() {
-                (len / step).ceil().clamp(1.0, u32::MAX as f64) as u64
-            } else {
-                1
-            };
-            let mut acc = (0.0f64, 0.0f64, 0usize);
-            for j in 0..=k {
-                let q = lerp_exact(pa, pb, j as f64 / k as f64);
-                let d = match root {
-                    Some(r) => tree.nearest(r, q, Candidate::NONE, seg).d2.sqrt(),
-                    None => f64::INFINITY,
-                };
-                acc = (acc.0.max(d), acc.1 + d, acc.2 + 1);
-            }
-            acc
-        })
-        .reduce(
-            || (0.0, 0.0, 0),
-            |x, y| (x.0.max(y.0), x.1 + y.1, x.2 + y.2),
-        );
+    let d = point_edge_distances(&samples, to_points, to_edges);
     Some(PolylineDistance {
-        max,
-        mean: sum / samples as f64,
-        samples,
+        max: d.iter().copied().fold(0.0, f64::max),
+        mean: d.iter().sum::<f64>() / d.len() as f64,
+        samples: d.len(),
     })
 }
 

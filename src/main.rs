@@ -95,6 +95,10 @@ struct RemeshArgs {
     /// Same as `--sizing adaptive`.
     #[arg(long)]
     adaptive: bool,
+    /// Uniform sizing: shorten edges down to 3/4 L where the surface bends
+    /// too tightly for edges of L (default true).
+    #[arg(long)]
+    refine_curved: Option<bool>,
     /// Adaptive sizing: absolute tolerance (default 0.1 % of the diagonal).
     #[arg(long, conflicts_with = "tolerance_ratio")]
     tolerance: Option<f64>,
@@ -290,6 +294,9 @@ fn remesh_command(a: RemeshArgs) -> Result<(), Failure> {
     }
     if let Some(g) = a.gradation {
         o.gradation = g;
+    }
+    if let Some(r) = a.refine_curved {
+        o.refine_curved = r;
     }
     o.validate().map_err(|e| Failure(e.to_string()))?;
     let input = load(&a.input, a.format)?;

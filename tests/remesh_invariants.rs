@@ -134,7 +134,7 @@ fn uniform_remeshing_of_spot_meets_the_quality_goals() {
     assert!(v >= 0.75, "regular {v}");
     let d = s.distance.as_ref().unwrap();
     assert!(
-        d.hausdorff_relative <= 0.003,
+        d.hausdorff_relative <= 0.0018,
         "hausdorff {}",
         d.hausdorff_relative
     );
@@ -254,4 +254,28 @@ fn target_faces_gives_about_that_many_faces() {
     .unwrap();
     let f = out.mesh.face_count() as f64;
     assert!((1500.0..2600.0).contains(&f), "faces {f}");
+}
+
+#[test]
+fn fertility_keeps_every_angle_above_20_degrees() {
+    // fertility's features force no small angle (its narrowest feature
+    // sector is 59°), so the goal of 20° applies in full. Before the final
+    // sliver repair one obtuse triangle beside a crease had 18.6°.
+    let input = load("fertility.off");
+    let l = 0.0075 * input.to_trimesh().bbox_diagonal();
+    let res = check(&input, &RemeshOptions::default().with_target_edge_length(l));
+    let s = stats::compute(
+        &res,
+        &StatsOptions {
+            target_edge_length: Some(l),
+            ..Default::default()
+        },
+    );
+    let a = s.angles.as_ref().unwrap();
+    assert!(a.min_deg >= 20.0, "min angle {}", a.min_deg);
+    assert!(
+        a.below_30_fraction <= 0.0005,
+        "below 30 {}",
+        a.below_30_fraction
+    );
 }

@@ -13,7 +13,7 @@ use rayon::prelude::*;
 use super::state::State;
 use super::RemeshError;
 use crate::geometry::{triangle_angles, triangle_cross, triangle_quality};
-use crate::mesh::{EdgeId, Handle, VertexId};
+use crate::mesh::{EdgeId, FaceId, Handle, VertexId};
 
 /// Largest dihedral angle between the two faces of a flippable edge (20°), as a cosine.
 const MAX_DIHEDRAL_COS: f64 = 0.939_692_620_785_908_4;
@@ -21,6 +21,9 @@ const MAX_DIHEDRAL_COS: f64 = 0.939_692_620_785_908_4;
 const MIN_QUALITY: f64 = 0.3;
 /// Sweeps over the edges per pass at most.
 const MAX_SWEEPS: usize = 6;
+/// Smallest angle (30°, in radians) below which [`repair_slivers`] tries the
+/// triangle's longest edge.
+const REPAIR_ANGLE: f64 = 30.0 * std::f64::consts::PI / 180.0;
 
 /// Flips edges; returns the number of flips.
 pub(super) fn flip_edges(st: &mut State, cancelled: &dyn Fn() -> bool) -> Result<u64, RemeshError> {
@@ -135,6 +138,71 @@ pub(super) fn flip_edges(st: &mut State, cancelled: &dyn Fn() -> bool) -> Result
             queued[j as usize] = false;
         }
         work = next;
+    }
+    Ok(count)
+}
+
+/// Final sweep after the last iteration: a triangle whose smallest angle is
+/// below [`REPAIR_ANGLE`] gets its longest edge flipped when that raises the
+/// smallest angle of the two faces, whatever it does to the valence (the
+/// valence flips only accept shape repairs that keep the valence, and a
+/// single obtuse triangle beside a feature line can survive them). The same
+/// guards as every flip apply: no feature or boundary edge, nearly coplanar
+/// faces, no fold, no worse quality. Faces are visited in index order, so
+/// the result is deterministic. Returns the number of flips.
+pub(super) fn repair_slivers(
+    st: &mut State,
+    cancelled: &dyn Fn() -> bool,
+) -> Result<u64, RemeshError> {
+    let mut count = 0u64;
+    for _ in 0..MAX_SWEEPS {
+        let mut flipped = 0u64;
+        for fi in 0..st.mesh.face_capacity() as u32 {
+            if fi % 4096 == 0 && cancelled() {
+                return Err(RemeshError::Cancelled);
+            }
+            let f = FaceId(fi);
+            if st.mesh.is_face_deleted(f) {
+                continue;
+            }
+            let m = &st.mesh;
+            let h0 = m.face_halfedge(f);
+            let h1 = m.next(h0);
+            let h2 = m.next(h1);
+            let vs = m.face_vertices(f);
+            let ang = triangle_angles(vs.map(|v| m.position(v)));
+            if ang.iter().all(|&a| a >= REPAIR_ANGLE) {
+                continue;
+            }
+            // The edge opposite the largest angle: corner 0 faces h1, 1 faces h2, 2 faces h0.
+            let k = (0..3).fold(0, |k, i| if ang[i] > ang[k] { i } else { k });
+            let h = [h1, h2, h0][k];
+            let e = h.edge();
+            if st.line_of(e).is_some() || m.is_boundary_edge(e) || !m.can_flip(e) {
+                continue;
+            }
+            let o = h.twin();
+            let (a, b) = (m.to_vertex(o), m.to_vertex(h));
+            let (c, d) = (m.to_vertex(m.next(h)), m.to_vertex(m.next(o)));
+            let p = |v: VertexId| m.position(v);
+            let (pa, pb, pc, pd) = (p(a), p(b), p(c), p(d));
+            let old = [[pa, pb, pc], [pb, pa, pd]];
+            let new = [[pc, pa, pd], [pd, pb, pc]];
+            let min2 = |t: [[DVec3; 3]; 2]| {
+                let x = triangle_angles(t[0]);
+                let y = triangle_angles(t[1]);
+                x.into_iter().chain(y).fold(f64::INFINITY, f64::min)
+            };
+            if min2(new) <= min2(old) + 1e-9 || !geometry_ok(old, new) {
+                continue;
+            }
+            st.mesh.flip_edge(e);
+            flipped += 1;
+        }
+        count += flipped;
+        if flipped == 0 {
+            break;
+        }
     }
     Ok(count)
 }

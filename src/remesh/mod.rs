@@ -161,9 +161,12 @@ pub struct PassTimes {
 /// What a remesh did.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct RemeshReport {
-    /// The resolved target edge length (the mean target under adaptive sizing).
+    /// The resolved target edge length L under uniform sizing (the nominal
+    /// length, also with `refine_curved`); the mean target under adaptive sizing.
     pub target_edge_length: f64,
-    /// Smallest and largest target length (equal under uniform sizing).
+    /// Smallest and largest target length. Under uniform sizing they are L
+    /// and L, or down to 3/4·L where `refine_curved` shortens edges on tight
+    /// curves.
     pub target_range: [f64; 2],
     /// Feature edges found on the input.
     pub feature_edges: u64,
@@ -176,6 +179,10 @@ pub struct RemeshReport {
     /// turn rule in the remesher's state).
     #[serde(default)]
     pub fixed_turns: u64,
+    /// Flips of the final sliver repair (see the flip pass), after the last
+    /// iteration.
+    #[serde(default)]
+    pub repair_flips: u64,
     /// Counts per iteration.
     pub iterations: Vec<IterationReport>,
     /// Time per pass.
@@ -293,6 +300,16 @@ fn run(
         ir.faces = st.mesh.face_count() as u64;
         report.iterations.push(ir);
         debug_assert!(st.mesh.validate().is_ok(), "{:?}", st.mesh.validate());
+    }
+    if options.flip && iterations > 0 {
+        // Part of the last iteration's progress: no new report, so the
+        // fraction stays monotone.
+        if observer.is_cancelled() {
+            return Err(RemeshError::Cancelled);
+        }
+        let t = Instant::now();
+        report.repair_flips = flip::repair_slivers(&mut st, &|| observer.is_cancelled())?;
+        report.seconds.flip += t.elapsed().as_secs_f64();
     }
     let (mesh, vertex_target) = st.finish();
     mesh.validate()

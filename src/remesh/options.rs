@@ -69,6 +69,12 @@ pub struct RemeshOptions {
     pub corner_angle: f64,
     /// Uniform or adaptive sizing. Default uniform.
     pub sizing: Sizing,
+    /// Uniform sizing: shorten edges, down to 3/4·L, where the surface bends
+    /// so tightly that edges of length L would cut it by more than 2/15·L
+    /// (curvature, sub-feature creases and cones, as in adaptive sizing),
+    /// graded by `gradation`. Edges stay in the band [4/5·L, 4/3·L] nearly
+    /// everywhere while tight curves are followed more closely. Default true.
+    pub refine_curved: bool,
     /// Adaptive sizing: absolute approximation tolerance ε.
     pub tolerance: Option<f64>,
     /// Adaptive sizing: tolerance as a fraction of the bounding-box diagonal
@@ -104,6 +110,7 @@ impl Default for RemeshOptions {
             feature_angle: DEFAULT_FEATURE_ANGLE_DEG,
             corner_angle: DEFAULT_CORNER_ANGLE_DEG,
             sizing: Sizing::Uniform,
+            refine_curved: true,
             tolerance: None,
             tolerance_ratio: None,
             min_edge_length: None,

@@ -41,6 +41,8 @@ pub(super) struct State {
     pub hint_seg: Vec<u32>,
     /// Per vertex: the target edge length there.
     pub size: Vec<f64>,
+    /// The uniform target L, when sizing is uniform.
+    pub uniform: Option<f64>,
     /// Per edge: the feature line it lies on, or [`NO_LINE`].
     pub edge_line: Vec<u32>,
     /// Per input face: unit normal.
@@ -65,6 +67,7 @@ pub(super) struct PartialState {
     hint_face: Vec<u32>,
     hint_seg: Vec<u32>,
     size: Vec<f64>,
+    uniform: Option<f64>,
     edge_line: Vec<u32>,
     input_normals: Vec<DVec3>,
     vertex_face_start: Vec<u32>,
@@ -88,6 +91,7 @@ impl State {
             hint_face: p.hint_face,
             hint_seg: p.hint_seg,
             size: p.size,
+            uniform: p.uniform,
             edge_line: p.edge_line,
             input_normals: p.input_normals,
             vertex_face_start: p.vertex_face_start,
@@ -115,11 +119,33 @@ impl State {
             },
         );
         let nv = mesh.vertex_capacity();
+        let is_feature = |a: u32, b: u32| features.is_feature_edge(a, b);
+        let mut uniform = None;
         let (sizing, size) = match options.sizing {
             Sizing::Uniform => {
                 let l = uniform_target(&mesh, options, diag, area);
                 check_estimate(area, l, options.max_output_faces)?;
-                (None, vec![l; nv])
+                uniform = Some(l);
+                if options.refine_curved {
+                    let so = SizingOptions {
+                        tolerance: CURVED_TOLERANCE * l,
+                        min_edge_length: CURVED_MIN_EDGE * l,
+                        max_edge_length: l,
+                        gradation: options.gradation,
+                        crease_bound: true,
+                    };
+                    let field = SizingField::from_mesh(
+                        &tm,
+                        &so,
+                        &curvature::CurvatureOptions::default(),
+                        Some(&is_feature),
+                    )
+                    .map_err(|e| RemeshError::Internal(format!("sizing: {e}")))?;
+                    let sizes = field.vertex_sizes().to_vec();
+                    (Some(field), sizes)
+                } else {
+                    (None, vec![l; nv])
+                }
             }
             Sizing::Adaptive => {
                 let eps = options
@@ -134,7 +160,6 @@ impl State {
                 }
                 so.max_edge_length = so.max_edge_length.max(so.min_edge_length);
                 so.gradation = options.gradation;
-                let is_feature = |a: u32, b: u32| features.is_feature_edge(a, b);
                 let field = SizingField::from_mesh(
                     &tm,
                     &so,
@@ -200,6 +225,7 @@ impl State {
             hint_face,
             hint_seg,
             size,
+            uniform,
             edge_line,
             input_normals,
         })
@@ -207,6 +233,9 @@ impl State {
 
     /// Mean target length over the vertices.
     pub fn mean_target(&self) -> f64 {
+        if let Some(l) = self.uniform {
+            return l;
+        }
         self.size.iter().sum::<f64>() / self.size.len().max(1) as f64
     }
 
@@ -277,6 +306,11 @@ impl State {
     }
 }
 
+/// Chord tolerance of uniform sizing's curvature refinement, in units of L:
+/// 2/15, which is 0.1 % of the diagonal at the bench's L = 0.75 %.
+pub(super) const CURVED_TOLERANCE: f64 = 2.0 / 15.0;
+/// Shortest target of the curvature refinement, in units of L.
+pub(super) const CURVED_MIN_EDGE: f64 = 0.75;
 /// Angle defect (2π minus the angles around a vertex) above which a smooth
 /// interior vertex is the tip of a spike or cone and is kept as a corner.
 const TIP_ANGLE_DEFECT: f64 = 0.3;

@@ -14,7 +14,7 @@ use crate::remesh::{RemeshOptions, Sizing};
 use crate::sizing::{DEFAULT_MIN_EDGE_FACTOR, DEFAULT_RELATIVE_TOLERANCE};
 
 /// Every accepted parameter name.
-pub const PARAM_NAMES: [&str; 14] = [
+pub const PARAM_NAMES: [&str; 15] = [
     "target_edge_length",
     "target_edge_ratio",
     "target_faces",
@@ -23,6 +23,7 @@ pub const PARAM_NAMES: [&str; 14] = [
     "preserve_features",
     "feature_angle",
     "sizing",
+    "refine_curved",
     "tolerance",
     "tolerance_ratio",
     "min_edge_length",
@@ -51,6 +52,9 @@ pub struct JobParams {
     pub feature_angle: f64,
     /// `uniform` or `adaptive`.
     pub sizing: Sizing,
+    /// Uniform sizing: shorten edges down to 3/4·L on tight curves.
+    #[serde(default = "default_refine_curved")]
+    pub refine_curved: bool,
     /// Adaptive sizing: absolute tolerance.
     pub tolerance: Option<f64>,
     /// Adaptive sizing: tolerance as a fraction of the bounding-box diagonal.
@@ -77,6 +81,7 @@ impl Default for JobParams {
             preserve_features: o.preserve_features,
             feature_angle: o.feature_angle,
             sizing: o.sizing,
+            refine_curved: o.refine_curved,
             tolerance: None,
             tolerance_ratio: None,
             min_edge_length: None,
@@ -85,6 +90,10 @@ impl Default for JobParams {
             output_format: None,
         }
     }
+}
+
+fn default_refine_curved() -> bool {
+    RemeshOptions::default().refine_curved
 }
 
 fn bad(field: &str, message: impl std::fmt::Display) -> Problem {
@@ -143,6 +152,7 @@ impl JobParams {
                 "preserve_features" => p.preserve_features = typed(k, v)?,
                 "feature_angle" => p.feature_angle = typed(k, v)?,
                 "sizing" => p.sizing = typed(k, v)?,
+                "refine_curved" => p.refine_curved = typed(k, v)?,
                 "tolerance" => p.tolerance = Some(typed(k, v)?),
                 "tolerance_ratio" => p.tolerance_ratio = Some(typed(k, v)?),
                 "min_edge_length" => p.min_edge_length = Some(typed(k, v)?),
@@ -174,6 +184,7 @@ impl JobParams {
             preserve_features: self.preserve_features,
             feature_angle: self.feature_angle,
             sizing: self.sizing,
+            refine_curved: self.refine_curved,
             tolerance: self.tolerance,
             tolerance_ratio: self.tolerance_ratio,
             min_edge_length: self.min_edge_length,

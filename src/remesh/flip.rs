@@ -2,6 +2,9 @@
 //! minimising the sum of squared valence deviations of the four vertices
 //! involved (Botsch & Kobbelt 2004), and flip non-Delaunay edges whose flip
 //! does not worsen valence, as CGAL does to repair badly shaped triangles.
+//! After the last iteration, [`repair_slivers`] flips the longest edge of any
+//! triangle still below 30° when that raises the smallest angle of the pair,
+//! whatever the valence.
 //!
 //! Guards: never a feature or boundary edge; the two faces must be nearly
 //! coplanar, so a flip never changes the shape; both new faces must keep the

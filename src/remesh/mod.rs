@@ -4,7 +4,9 @@
 //!
 //! [`remesh`] runs, for each iteration: split long edges, collapse short
 //! edges, flip toward valence 6 (4 on the boundary), tangential relaxation,
-//! and projection onto the input surface or its feature lines. Topology lives
+//! and projection onto the input surface or its feature lines; after the
+//! last iteration a sliver repair flips the longest edge of triangles still
+//! below 30° where that helps. Topology lives
 //! in [`crate::mesh`]; this module only decides *which* edges and vertices to
 //! change. One pass per file: [`split`], [`collapse`], [`flip`], [`relax`]
 //! (relaxation and projection share the guarded move in [`relax`]).

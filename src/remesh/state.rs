@@ -1,7 +1,9 @@
 //! The working state of a remesh: the mesh being changed, the reference
 //! (input surface index, feature set, sizing field) and the per-element data
 //! that follows the operators: each vertex's feature kind, its projection
-//! hints and target size, and each edge's feature line.
+//! hints and target size, and each edge's feature line. Uniform sizing with
+//! `refine_curved` builds the adaptive field of [`crate::sizing`] at the
+//! chord tolerance [`CURVED_TOLERANCE`]·L, clamped to [3/4·L, L].
 
 use glam::DVec3;
 use rayon::prelude::*;

@@ -6,7 +6,8 @@
 //! edges, flip toward valence 6 (4 on the boundary), tangential relaxation,
 //! and projection onto the input surface or its feature lines; after the
 //! last iteration a sliver repair flips the longest edge of triangles still
-//! below 30° where that helps. Topology lives
+//! below 30° where that helps, moves their smooth vertices to where their
+//! one-ring's smallest angle is largest, and flips once more. Topology lives
 //! in [`crate::mesh`]; this module only decides *which* edges and vertices to
 //! change. One pass per file: [`split`], [`collapse`], [`flip`], [`relax`]
 //! (relaxation and projection share the guarded move in [`relax`]).
@@ -185,6 +186,9 @@ pub struct RemeshReport {
     /// iteration.
     #[serde(default)]
     pub repair_flips: u64,
+    /// Vertices moved by the final shape pass (see the relaxation pass).
+    #[serde(default)]
+    pub repair_moves: u64,
     /// Counts per iteration.
     pub iterations: Vec<IterationReport>,
     /// Time per pass.
@@ -311,6 +315,8 @@ fn run(
         }
         let t = Instant::now();
         report.repair_flips = flip::repair_slivers(&mut st, &|| observer.is_cancelled())?;
+        report.repair_moves = relax::improve_slivers(&mut st, &|| observer.is_cancelled())?;
+        report.repair_flips += flip::repair_slivers(&mut st, &|| observer.is_cancelled())?;
         report.seconds.flip += t.elapsed().as_secs_f64();
     }
     let (mesh, vertex_target) = st.finish();

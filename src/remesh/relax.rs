@@ -13,13 +13,16 @@
 //! result does not depend on the thread count), then apply the moves: a move
 //! that would invert, degenerate or turn a face away from the input is
 //! halved, up to five times, and then dropped.
+//!
+//! After the last iteration, [`improve_slivers`] moves the smooth vertices of
+//! triangles still below 30° to better places on the input, one at a time.
 
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::state::{State, CORNER, SMOOTH};
+use super::state::{State, COLLAPSE_FACTOR, CORNER, SMOOTH, SPLIT_FACTOR};
 use crate::bvh::{closest_point_on_triangle, ClosestPoint};
-use crate::geometry::{triangle_cross, triangle_quality};
+use crate::geometry::{triangle_angles, triangle_cross, triangle_quality};
 use crate::mesh::{FaceId, Handle, VertexId};
 
 /// How often a guarded move is halved before it is dropped.
@@ -28,6 +31,15 @@ const MAX_HALVINGS: u32 = 5;
 const MIN_QUALITY: f64 = 0.05;
 /// Largest normal change of a face caused by one move step (60°), as a cosine.
 const MAX_NORMAL_CHANGE_COS: f64 = 0.5;
+
+/// Smallest angle (30°, in radians) below which [`improve_slivers`] tries to
+/// move the smooth corners of a triangle.
+const SHAPE_ANGLE: f64 = 30.0 * std::f64::consts::PI / 180.0;
+
+/// Edges at a vertex that a shape move may push out of the length band.
+const SHAPE_BAND_SLACK: usize = 1;
+/// Sweeps of [`improve_slivers`] at most.
+const SHAPE_ROUNDS: usize = 3;
 
 /// Where a vertex projects: the point, the new face and segment hints, and
 /// the surface face and barycentric coordinates under it (for sizing).
@@ -313,4 +325,160 @@ fn guarded_move_in_pool(st: &mut State, targets: &[DVec3], check_input: bool) ->
         }
     }
     limited.iter().filter(|&&l| l).count() as u64
+}
+
+/// Final shape pass: every smooth vertex of a triangle whose smallest angle
+/// is below [`SHAPE_ANGLE`] tries a few positions and keeps the one, projected
+/// onto the input, that gives its one-ring the largest smallest angle.
+///
+/// Relaxation puts a vertex at the centroid of its ring, which is the wrong
+/// place for the apex over a short edge that cannot go away (two corners of
+/// the input close together, or a crease line passing near): the triangle
+/// gets a sliver angle at the apex. The candidates are the apex of the
+/// equilateral triangle over each bad face's opposite edge, and the points a
+/// half and a quarter of the way there; a move is kept only if every ring
+/// face stays non-degenerate, turns by less than 60° and faces the same way
+/// as the input under the vertex, the ring's smallest angle grows, and at
+/// most [`SHAPE_BAND_SLACK`] more of the vertex's edges leave the length band.
+/// Vertices are visited in face order, so the result is deterministic.
+/// Returns the number of vertices moved.
+pub(super) fn improve_slivers(
+    st: &mut State,
+    cancelled: &dyn Fn() -> bool,
+) -> Result<u64, super::RemeshError> {
+    let mut moved = 0u64;
+    for _ in 0..SHAPE_ROUNDS {
+        let before = moved;
+        for fi in 0..st.mesh.face_capacity() as u32 {
+            if fi % 4096 == 0 && cancelled() {
+                return Err(super::RemeshError::Cancelled);
+            }
+            let f = FaceId(fi);
+            if st.mesh.is_face_deleted(f) {
+                continue;
+            }
+            let t = st.mesh.face_positions(f);
+            if triangle_angles(t).iter().all(|&a| a >= SHAPE_ANGLE) {
+                continue;
+            }
+            for v in st.mesh.face_vertices(f) {
+                if st.kind[v.idx()] == SMOOTH
+                    && !st.mesh.is_boundary_vertex(v)
+                    && improve_vertex(st, v)
+                {
+                    moved += 1;
+                }
+            }
+        }
+        if moved == before {
+            break;
+        }
+    }
+    Ok(moved)
+}
+
+/// The ring faces of `v` as (a, b) with (v, a, b) counter-clockwise.
+fn ring(st: &State, v: VertexId) -> Vec<(VertexId, VertexId)> {
+    let m = &st.mesh;
+    m.outgoing(v)
+        .filter(|&h| !m.is_boundary_halfedge(h))
+        .map(|h| (m.to_vertex(h), m.to_vertex(m.next(h))))
+        .collect()
+}
+
+/// Smallest angle of the ring of `v` with `v` at `p`, or `None` when a face
+/// degenerates, turns by 60° or more from `normals`, or faces away from `up`.
+fn ring_min_angle(
+    st: &State,
+    ring: &[(VertexId, VertexId)],
+    normals: &[DVec3],
+    p: DVec3,
+    up: DVec3,
+) -> Option<f64> {
+    let m = &st.mesh;
+    let mut worst = f64::INFINITY;
+    for (&(a, b), &n0) in ring.iter().zip(normals) {
+        let t = [p, m.position(a), m.position(b)];
+        let n = triangle_cross(t);
+        let ln = n.length();
+        if ln <= 0.0
+            || n.dot(n0) <= MAX_NORMAL_CHANGE_COS * ln * n0.length()
+            || n.dot(up) <= 0.0
+            || triangle_quality(t) < MIN_QUALITY
+        {
+            return None;
+        }
+        worst = worst.min(triangle_angles(t).into_iter().fold(f64::INFINITY, f64::min));
+    }
+    Some(worst)
+}
+
+/// How many edges at `v` (placed at `p`) leave the band [4/5, 4/3] of their
+/// target.
+fn out_of_band(st: &State, v: VertexId, p: DVec3) -> usize {
+    let m = &st.mesh;
+    m.outgoing(v)
+        .filter(|&h| {
+            let w = m.to_vertex(h);
+            let l = p.distance(m.position(w)) / st.edge_target(v, w);
+            !(COLLAPSE_FACTOR..=SPLIT_FACTOR).contains(&l)
+        })
+        .count()
+}
+
+fn improve_vertex(st: &mut State, v: VertexId) -> bool {
+    let m = &st.mesh;
+    let p = m.position(v);
+    let ring = ring(st, v);
+    let normals: Vec<DVec3> = ring
+        .iter()
+        .map(|&(a, b)| triangle_cross([p, m.position(a), m.position(b)]))
+        .collect();
+    let up = st.input_normals[st.hint_face[v.idx()] as usize];
+    let Some(current) = ring_min_angle(st, &ring, &normals, p, up) else {
+        return false;
+    };
+    let band_before = out_of_band(st, v, p);
+    let mut best: Option<(f64, ClosestPoint)> = None;
+    for &(a, b) in &ring {
+        let (pa, pb) = (m.position(a), m.position(b));
+        if triangle_angles([p, pa, pb])
+            .iter()
+            .all(|&x| x >= SHAPE_ANGLE)
+        {
+            continue;
+        }
+        let ab = pb - pa;
+        let mid = 0.5 * (pa + pb);
+        let off = p - mid;
+        let perp = (off - ab * (off.dot(ab) / ab.length_squared())).normalize_or_zero();
+        if perp == DVec3::ZERO {
+            continue;
+        }
+        let apex = mid + perp * (0.5 * 3f64.sqrt() * ab.length());
+        for t in [1.0, 0.5, 0.25] {
+            let q = p + t * (apex - p);
+            let Some(cp) = walk_closest(st, q, st.hint_face[v.idx()], st.size[v.idx()]) else {
+                continue;
+            };
+            let up = st.input_normals[cp.face as usize];
+            if out_of_band(st, v, cp.point) > band_before + SHAPE_BAND_SLACK {
+                continue;
+            }
+            if let Some(score) = ring_min_angle(st, &ring, &normals, cp.point, up) {
+                if score > current + 1e-9 && best.as_ref().is_none_or(|(s, _)| score > *s) {
+                    best = Some((score, cp));
+                }
+            }
+        }
+    }
+    let Some((_, cp)) = best else {
+        return false;
+    };
+    st.mesh.set_position(v, cp.point);
+    st.hint_face[v.idx()] = cp.face;
+    if let Some(field) = &st.sizing {
+        st.size[v.idx()] = field.size_at(cp.face, cp.barycentric);
+    }
+    true
 }

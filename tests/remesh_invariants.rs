@@ -306,6 +306,8 @@ fn the_final_shape_pass_leaves_fandisk_almost_no_triangle_below_30_degrees() {
     let a = s.angles.as_ref().unwrap();
     let below = (a.below_30_fraction * s.faces as f64).round() as u64;
     assert!(below <= 7, "{below} triangles below 30°");
-    assert!(a.min_deg >= 18.0, "min angle {}", a.min_deg);
+    // fandisk's narrowest feature sector is 19.38° (an input line turning
+    // sharply); line vertices sliding to better places reach it.
+    assert!(a.min_deg >= 19.0, "min angle {}", a.min_deg);
     assert!(s.edge_length.as_ref().unwrap().within_band >= 0.98);
 }

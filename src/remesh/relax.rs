@@ -362,12 +362,12 @@ pub(super) fn improve_slivers(
                 continue;
             }
             for v in st.mesh.face_vertices(f) {
-                if st.kind[v.idx()] == SMOOTH
-                    && !st.mesh.is_boundary_vertex(v)
-                    && improve_vertex(st, v)
-                {
-                    moved += 1;
-                }
+                let improved = match st.kind[v.idx()] {
+                    CORNER => false,
+                    SMOOTH => !st.mesh.is_boundary_vertex(v) && improve_vertex(st, v),
+                    line => improve_line_vertex(st, v, line),
+                };
+                moved += improved as u64;
             }
         }
         if moved == before {
@@ -393,7 +393,7 @@ fn ring_min_angle(
     ring: &[(VertexId, VertexId)],
     normals: &[DVec3],
     p: DVec3,
-    up: DVec3,
+    up: Option<DVec3>,
 ) -> Option<f64> {
     let m = &st.mesh;
     let mut worst = f64::INFINITY;
@@ -403,7 +403,7 @@ fn ring_min_angle(
         let ln = n.length();
         if ln <= 0.0
             || n.dot(n0) <= MAX_NORMAL_CHANGE_COS * ln * n0.length()
-            || n.dot(up) <= 0.0
+            || up.is_some_and(|u| n.dot(u) <= 0.0)
             || triangle_quality(t) < MIN_QUALITY
         {
             return None;
@@ -435,7 +435,7 @@ fn improve_vertex(st: &mut State, v: VertexId) -> bool {
         .map(|&(a, b)| triangle_cross([p, m.position(a), m.position(b)]))
         .collect();
     let up = st.input_normals[st.hint_face[v.idx()] as usize];
-    let Some(current) = ring_min_angle(st, &ring, &normals, p, up) else {
+    let Some(current) = ring_min_angle(st, &ring, &normals, p, Some(up)) else {
         return false;
     };
     let band_before = out_of_band(st, v, p);
@@ -465,7 +465,7 @@ fn improve_vertex(st: &mut State, v: VertexId) -> bool {
             if out_of_band(st, v, cp.point) > band_before + SHAPE_BAND_SLACK {
                 continue;
             }
-            if let Some(score) = ring_min_angle(st, &ring, &normals, cp.point, up) {
+            if let Some(score) = ring_min_angle(st, &ring, &normals, cp.point, Some(up)) {
                 if score > current + 1e-9 && best.as_ref().is_none_or(|(s, _)| score > *s) {
                     best = Some((score, cp));
                 }
@@ -479,6 +479,62 @@ fn improve_vertex(st: &mut State, v: VertexId) -> bool {
     st.hint_face[v.idx()] = cp.face;
     if let Some(field) = &st.sizing {
         st.size[v.idx()] = field.size_at(cp.face, cp.barycentric);
+    }
+    true
+}
+
+/// [`improve_vertex`] for a vertex on feature line `line`: it slides along
+/// the line, toward either line neighbour by 15, 30 or 45 % of the way, and
+/// is projected back onto the input's line. A vertex whose ring has faces
+/// on both sides of a crease has no single "up" direction; the 60° turn
+/// limit per face keeps the move from folding either side.
+fn improve_line_vertex(st: &mut State, v: VertexId, line: u32) -> bool {
+    let m = &st.mesh;
+    let p = m.position(v);
+    let neighbours: Vec<DVec3> = m
+        .outgoing(v)
+        .filter(|h| st.edge_line[h.edge().idx()] == line)
+        .map(|h| m.position(m.to_vertex(h)))
+        .collect();
+    if neighbours.len() != 2 {
+        return false;
+    }
+    let ring = ring(st, v);
+    let normals: Vec<DVec3> = ring
+        .iter()
+        .map(|&(a, b)| triangle_cross([p, m.position(a), m.position(b)]))
+        .collect();
+    let Some(current) = ring_min_angle(st, &ring, &normals, p, None) else {
+        return false;
+    };
+    let band_before = out_of_band(st, v, p);
+    let hint = st.hint_seg[v.idx()];
+    let mut best: Option<(f64, DVec3, u32)> = None;
+    for &n in &neighbours {
+        for t in [0.15, 0.3, 0.45] {
+            let lp = st
+                .features
+                .closest_on_line_near(line, p + t * (n - p), hint);
+            if out_of_band(st, v, lp.point) > band_before + SHAPE_BAND_SLACK {
+                continue;
+            }
+            if let Some(score) = ring_min_angle(st, &ring, &normals, lp.point, None) {
+                if score > current + 1e-9 && best.is_none_or(|(s, _, _)| score > s) {
+                    best = Some((score, lp.point, lp.segment));
+                }
+            }
+        }
+    }
+    let Some((_, q, seg)) = best else {
+        return false;
+    };
+    st.mesh.set_position(v, q);
+    st.hint_seg[v.idx()] = seg;
+    if let Some(cp) = st.index.closest_point_with_hint(q, st.hint_face[v.idx()]) {
+        st.hint_face[v.idx()] = cp.face;
+        if let Some(field) = &st.sizing {
+            st.size[v.idx()] = field.size_at(cp.face, cp.barycentric);
+        }
     }
     true
 }

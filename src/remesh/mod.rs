@@ -273,7 +273,7 @@ fn run(
         if options.flip {
             notify(observer, it, Pass::Flip)?;
             let t = Instant::now();
-            ir.flips = flip::flip_edges(&mut st, &|| observer.is_cancelled())?;
+            ir.flips = flip::flip_edges(&mut st, None, &|| observer.is_cancelled())?;
             report.seconds.flip += t.elapsed().as_secs_f64();
         }
         for _ in 0..options.relaxation_steps.max(1) {

@@ -131,7 +131,8 @@ fn uniform_remeshing_of_spot_meets_the_quality_goals() {
         a.below_30_fraction
     );
     let v = s.valence.regular_fraction.unwrap();
-    assert!(v >= 0.75, "regular {v}");
+    // 84.3 % since the valence-driven collapses (80.9 % before).
+    assert!(v >= 0.83, "regular {v}");
     let d = s.distance.as_ref().unwrap();
     assert!(
         d.hausdorff_relative <= 0.0018,

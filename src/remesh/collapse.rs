@@ -9,6 +9,16 @@
 //! shape guard (no face of the one-ring flips, degenerates or becomes a
 //! needle). Both directions are tried and the one leaving the better worst
 //! triangle wins.
+//!
+//! A second, valence-driven sweep ([`collapse_for_valence`]) runs after the
+//! flips: it collapses an edge between two smooth interior vertices when that
+//! lowers the flip pass's energy (the sum of squared valence deviations of
+//! the two end points and the two opposite corners). Flips cannot remove a
+//! pair of adjacent valence-5 vertices whose opposite corners have valence 7
+//! (flipping makes it worse); merging the pair can. These collapses pass the
+//! same guards, except that the length guard allows resulting edges up to
+//! [`VALENCE_COLLAPSE_STRETCH`] times the split length: the merged vertex's
+//! ring spans two old rings, and the next relaxation evens the lengths out.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -16,7 +26,7 @@ use rayon::prelude::*;
 use super::state::{State, COLLAPSE_FACTOR, CORNER, SMOOTH, SPLIT_FACTOR};
 use super::RemeshError;
 use crate::geometry::{triangle_cross, triangle_quality};
-use crate::mesh::{EdgeId, HalfedgeId, Handle};
+use crate::mesh::{EdgeId, HalfedgeId, Handle, VertexId};
 
 /// Largest normal change of a one-ring face caused by a collapse, as a cosine (≈ 45°).
 const MAX_NORMAL_CHANGE_COS: f64 = std::f64::consts::FRAC_1_SQRT_2;
@@ -26,6 +36,11 @@ const MIN_QUALITY: f64 = 0.2;
 /// keeping valences near 6, this bounds the cost of every check around the
 /// high-valence fan centres that CAD tessellations contain.
 const MAX_VALENCE_AFTER: usize = 12;
+/// A valence-driven collapse may leave edges up to this factor times the
+/// split length (4/3 of the target), about 1.47 times the target. At 1 almost
+/// every candidate is refused; 1.1 keeps the edge-length band (relaxation
+/// shortens them again) while most candidates pass.
+const VALENCE_COLLAPSE_STRETCH: f64 = 1.1;
 
 /// Collapses short edges in one sweep; returns the number of collapses.
 pub(super) fn collapse_short_edges(
@@ -73,7 +88,7 @@ pub(super) fn collapse_short_edges(
                 if !valence_ok(st, h) || !st.mesh.can_collapse(h) {
                     continue;
                 }
-                if let Some(q) = collapse_quality(st, h, p) {
+                if let Some(q) = collapse_quality(st, h, p, 1.0) {
                     if best.is_none_or(|(bq, _, _)| q > bq) {
                         best = Some((q, h, p));
                     }
@@ -125,8 +140,9 @@ fn allowed_position(st: &State, h: HalfedgeId) -> Option<DVec3> {
 }
 
 /// The worst quality of the one-ring faces after collapsing `h` with the
-/// kept vertex at `p`, or `None` if a guard fails.
-fn collapse_quality(st: &State, h: HalfedgeId, p: DVec3) -> Option<f64> {
+/// kept vertex at `p`, or `None` if a guard fails. Resulting edges may be
+/// up to `stretch` times the split length.
+fn collapse_quality(st: &State, h: HalfedgeId, p: DVec3, stretch: f64) -> Option<f64> {
     let m = &st.mesh;
     let v0 = m.from_vertex(h);
     let v1 = m.to_vertex(h);
@@ -141,7 +157,7 @@ fn collapse_quality(st: &State, h: HalfedgeId, p: DVec3) -> Option<f64> {
         for g in m.outgoing(v) {
             let w = m.to_vertex(g);
             if w != other {
-                let limit = SPLIT_FACTOR * 0.5 * (size_after + st.size[w.idx()]);
+                let limit = stretch * SPLIT_FACTOR * 0.5 * (size_after + st.size[w.idx()]);
                 if p.distance_squared(m.position(w)) > limit * limit {
                     return None;
                 }
@@ -170,4 +186,119 @@ fn collapse_quality(st: &State, h: HalfedgeId, p: DVec3) -> Option<f64> {
         }
     }
     Some(worst)
+}
+
+/// Valence (counted up to 16) and valence target (4 on the boundary, 6
+/// elsewhere) of a vertex.
+#[derive(Clone, Copy)]
+struct Regularity {
+    valence: i32,
+    target: i32,
+}
+
+fn regularity(st: &State, v: VertexId) -> Regularity {
+    let m = &st.mesh;
+    Regularity {
+        valence: m.outgoing(v).take(16).count() as i32,
+        target: if m.is_boundary_vertex(v) { 4 } else { 6 },
+    }
+}
+
+/// The drop in valence energy (sum of squared deviations from the targets
+/// over the end points and opposite corners) if interior edge `e` between
+/// two smooth interior vertices were collapsed; `None` for any other edge.
+/// `reg` gives each vertex's valence and target. Valences are counted up to
+/// 16, so the cost is O(1) at fan centres (which fail [`valence_ok`] anyway).
+fn valence_collapse_gain(
+    st: &State,
+    e: EdgeId,
+    reg: &dyn Fn(VertexId) -> Regularity,
+) -> Option<i32> {
+    let m = &st.mesh;
+    if m.is_edge_deleted(e) || m.is_boundary_edge(e) {
+        return None;
+    }
+    let h = e.halfedge(0);
+    let o = h.twin();
+    let (a, b) = (m.to_vertex(o), m.to_vertex(h));
+    if st.kind[a.idx()] != SMOOTH || st.kind[b.idx()] != SMOOTH {
+        return None;
+    }
+    let (ra, rb) = (reg(a), reg(b));
+    if ra.target != 6 || rb.target != 6 {
+        return None;
+    }
+    let (rc, rd) = (reg(m.to_vertex(m.next(h))), reg(m.to_vertex(m.next(o))));
+    let sq = |x: i32| x * x;
+    let before = sq(ra.valence - 6)
+        + sq(rb.valence - 6)
+        + sq(rc.valence - rc.target)
+        + sq(rd.valence - rd.target);
+    // The merged vertex keeps both rings minus the edge and the two merged pairs.
+    let after = sq(ra.valence + rb.valence - 4 - 6)
+        + sq(rc.valence - 1 - rc.target)
+        + sq(rd.valence - 1 - rd.target);
+    Some(before - after)
+}
+
+/// Collapses, in index order, every edge whose collapse lowers the valence
+/// energy (see the module docs), at its midpoint and under the length-pass
+/// guards. Returns the number of collapses and the edges at the vertices
+/// whose valence changed (ascending), for a following flip sweep.
+pub(super) fn collapse_for_valence(
+    st: &mut State,
+    cancelled: &dyn Fn() -> bool,
+) -> Result<(u64, Vec<u32>), RemeshError> {
+    // Candidates from the valences at the start, found in parallel.
+    let candidates: Vec<u32> = {
+        let st_ref: &State = st;
+        st.pool.install(|| {
+            let reg: Vec<Regularity> = (0..st_ref.mesh.vertex_capacity() as u32)
+                .into_par_iter()
+                .map(|i| regularity(st_ref, VertexId(i)))
+                .collect();
+            let lookup = |v: VertexId| reg[v.idx()];
+            (0..st_ref.mesh.edge_capacity() as u32)
+                .into_par_iter()
+                .filter(|&i| {
+                    valence_collapse_gain(st_ref, EdgeId(i), &lookup).is_some_and(|g| g > 0)
+                })
+                .collect()
+        })
+    };
+    let mut count = 0u64;
+    let mut touched: Vec<u32> = Vec::new();
+    for (k, &i) in candidates.iter().enumerate() {
+        if k % 4096 == 0 && cancelled() {
+            return Err(RemeshError::Cancelled);
+        }
+        // Earlier collapses change valences nearby: check again.
+        let e = EdgeId(i);
+        let live = |v: VertexId| regularity(st, v);
+        if valence_collapse_gain(st, e, &live).is_none_or(|g| g <= 0) {
+            continue;
+        }
+        let h = e.halfedge(0);
+        let [a, b] = st.mesh.edge_vertices(e);
+        let p = 0.5 * (st.mesh.position(a) + st.mesh.position(b));
+        if !valence_ok(st, h)
+            || !st.mesh.can_collapse(h)
+            || collapse_quality(st, h, p, VALENCE_COLLAPSE_STRETCH).is_none()
+        {
+            continue;
+        }
+        let c = st.mesh.to_vertex(st.mesh.next(h));
+        let d = st.mesh.to_vertex(st.mesh.next(h.twin()));
+        let r = st.collapse(h, p);
+        let (kept, removed) = (r.kept.idx(), r.removed.idx());
+        st.size[kept] = st.size[kept].min(st.size[removed]);
+        count += 1;
+        for v in [r.kept, c, d] {
+            touched.extend(st.mesh.outgoing(v).map(|g| g.edge().0));
+        }
+    }
+    // Edges removed by later collapses stay listed; the flip pass skips them.
+    touched.sort_unstable();
+    touched.dedup();
+    Ok((count, touched))
 }

@@ -28,51 +28,67 @@ const MAX_SWEEPS: usize = 6;
 /// triangle's longest edge.
 const REPAIR_ANGLE: f64 = 30.0 * std::f64::consts::PI / 180.0;
 
-/// Flips edges; returns the number of flips.
-pub(super) fn flip_edges(st: &mut State, cancelled: &dyn Fn() -> bool) -> Result<u64, RemeshError> {
-    let nv = st.mesh.vertex_capacity();
-    let mut valence = vec![0i32; nv];
-    let mut target = vec![6i32; nv];
-    for v in st.mesh.vertices() {
-        valence[v.idx()] = st.mesh.valence(v) as i32;
-        if st.mesh.is_boundary_vertex(v) {
-            target[v.idx()] = 4;
-        }
-    }
+/// Flips edges; returns the number of flips. The first sweep visits every
+/// edge, or only the edges of `seed` (ascending edge indices) when given.
+pub(super) fn flip_edges(
+    st: &mut State,
+    seed: Option<Vec<u32>>,
+    cancelled: &dyn Fn() -> bool,
+) -> Result<u64, RemeshError> {
+    let (mut valence, target): (Vec<i32>, Vec<i32>) = {
+        let m = &st.mesh;
+        st.pool.install(|| {
+            (0..m.vertex_capacity() as u32)
+                .into_par_iter()
+                .map(|i| {
+                    let v = VertexId(i);
+                    if m.is_vertex_deleted(v) {
+                        (0, 6)
+                    } else {
+                        let t = if m.is_boundary_vertex(v) { 4 } else { 6 };
+                        (m.valence(v) as i32, t)
+                    }
+                })
+                .unzip()
+        })
+    };
     let mut count = 0u64;
-    // The first sweep visits every edge; later sweeps only the edges around
-    // the quads that changed, in index order (deterministic).
+    // The first sweep visits every edge (or the seed); later sweeps only the
+    // edges around the quads that changed, in index order (deterministic).
     // The first sweep's candidates are found in parallel with the valences
     // at the start; flips queue every edge whose valences they change.
-    let mut work: Vec<u32> = {
-        let m = &st.mesh;
-        let (valence, target) = (&valence, &target);
-        st.pool.install(|| {
-            (0..m.edge_capacity() as u32)
-                .into_par_iter()
-                .filter(|&i| {
-                    let e = EdgeId(i);
-                    if m.is_edge_deleted(e) || m.is_boundary_edge(e) {
-                        return false;
-                    }
-                    let h = e.halfedge(0);
-                    let o = h.twin();
-                    let vs = [
-                        m.to_vertex(o),
-                        m.to_vertex(h),
-                        m.to_vertex(m.next(h)),
-                        m.to_vertex(m.next(o)),
-                    ];
-                    let d = |k: usize, delta: i32| {
-                        let x = valence[vs[k].idx()] + delta - target[vs[k].idx()];
-                        x * x
-                    };
-                    let before = d(0, 0) + d(1, 0) + d(2, 0) + d(3, 0);
-                    let after = d(0, -1) + d(1, -1) + d(2, 1) + d(3, 1);
-                    after <= before
-                })
-                .collect()
-        })
+    let mut work: Vec<u32> = match seed {
+        Some(seed) => seed,
+        None => {
+            let m = &st.mesh;
+            let (valence, target) = (&valence, &target);
+            st.pool.install(|| {
+                (0..m.edge_capacity() as u32)
+                    .into_par_iter()
+                    .filter(|&i| {
+                        let e = EdgeId(i);
+                        if m.is_edge_deleted(e) || m.is_boundary_edge(e) {
+                            return false;
+                        }
+                        let h = e.halfedge(0);
+                        let o = h.twin();
+                        let vs = [
+                            m.to_vertex(o),
+                            m.to_vertex(h),
+                            m.to_vertex(m.next(h)),
+                            m.to_vertex(m.next(o)),
+                        ];
+                        let d = |k: usize, delta: i32| {
+                            let x = valence[vs[k].idx()] + delta - target[vs[k].idx()];
+                            x * x
+                        };
+                        let before = d(0, 0) + d(1, 0) + d(2, 0) + d(3, 0);
+                        let after = d(0, -1) + d(1, -1) + d(2, 1) + d(3, 1);
+                        after <= before
+                    })
+                    .collect()
+            })
+        }
     };
     let mut queued = vec![false; st.mesh.edge_capacity()];
     for _ in 0..MAX_SWEEPS {

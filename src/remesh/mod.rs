@@ -3,11 +3,12 @@
 //! feature handling of Dunyach et al. 2013 and CGAL's implementation notes.
 //!
 //! [`remesh`] runs, for each iteration: split long edges, collapse short
-//! edges, flip toward valence 6 (4 on the boundary), tangential relaxation,
-//! and projection onto the input surface or its feature lines; after the
-//! last iteration a sliver repair flips the longest edge of triangles still
-//! below 30° where that helps, moves their smooth vertices to where their
-//! one-ring's smallest angle is largest, and flips once more. Topology lives
+//! edges, flip toward valence 6 (4 on the boundary), collapse the irregular
+//! vertex pairs flips cannot fix and flip again, tangential relaxation, and
+//! projection onto the input surface or its feature lines; after the last
+//! iteration a sliver repair flips the longest edge of triangles still below
+//! 30° where that helps, moves their vertices to where their one-ring's
+//! smallest angle is largest, and flips once more. Topology lives
 //! in [`crate::mesh`]; this module only decides *which* edges and vertices to
 //! change. One pass per file: [`split`], [`collapse`], [`flip`], [`relax`]
 //! (relaxation and projection share the guarded move in [`relax`]).
@@ -44,7 +45,7 @@ pub enum Pass {
     Split,
     /// Collapsing short edges.
     Collapse,
-    /// Flipping edges toward regular valence.
+    /// Flipping edges toward regular valence (with the valence-driven collapses).
     Flip,
     /// Tangential relaxation.
     Relax,
@@ -132,7 +133,7 @@ pub enum RemeshError {
 pub struct IterationReport {
     /// Edges split.
     pub splits: u64,
-    /// Edges collapsed.
+    /// Edges collapsed, for length and for valence.
     pub collapses: u64,
     /// Edges flipped.
     pub flips: u64,
@@ -153,7 +154,7 @@ pub struct PassTimes {
     pub split: f64,
     /// Collapsing.
     pub collapse: f64,
-    /// Flipping.
+    /// Flipping, including the valence-driven collapses.
     pub flip: f64,
     /// Relaxation.
     pub relax: f64,
@@ -286,7 +287,17 @@ fn run(
         if options.flip {
             notify(observer, it, Pass::Flip)?;
             let t = Instant::now();
-            ir.flips = flip::flip_edges(&mut st, &|| observer.is_cancelled())?;
+            ir.flips = flip::flip_edges(&mut st, None, &|| observer.is_cancelled())?;
+            if options.collapse {
+                // Merge the irregular pairs flips cannot fix, then flip again
+                // around the merged vertices.
+                let (n, seed) =
+                    collapse::collapse_for_valence(&mut st, &|| observer.is_cancelled())?;
+                ir.collapses += n;
+                if n > 0 {
+                    ir.flips += flip::flip_edges(&mut st, Some(seed), &|| observer.is_cancelled())?;
+                }
+            }
             report.seconds.flip += t.elapsed().as_secs_f64();
         }
         for _ in 0..options.relaxation_steps.max(1) {

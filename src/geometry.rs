@@ -62,9 +62,36 @@ pub fn triangle_min_angle(p: [DVec3; 3]) -> f64 {
     a.min(b).min(c)
 }
 
+/// Cosine of the smallest interior angle of triangle `p`: the largest of
+/// its three corner cosines, without a single `acos` (the smallest angle is
+/// the one with the largest cosine). 1 for a degenerate triangle.
+#[inline]
+pub fn triangle_min_angle_cos(p: [DVec3; 3]) -> f64 {
+    let mut worst = f64::NEG_INFINITY;
+    for k in 0..3 {
+        let u = p[(k + 1) % 3] - p[k];
+        let w = p[(k + 2) % 3] - p[k];
+        let d = (u.length_squared() * w.length_squared()).sqrt();
+        worst = worst.max(if d > 0.0 { u.dot(w) / d } else { 1.0 });
+    }
+    worst.min(1.0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn min_angle_cosine_matches_the_angles() {
+        let t = [
+            DVec3::ZERO,
+            DVec3::new(3.0, 0.0, 0.0),
+            DVec3::new(0.4, 1.1, 0.2),
+        ];
+        let want = triangle_min_angle(t).cos();
+        assert!((triangle_min_angle_cos(t) - want).abs() < 1e-12);
+        assert_eq!(triangle_min_angle_cos([DVec3::ZERO; 3]), 1.0);
+    }
 
     #[test]
     fn equilateral_triangle_has_quality_one_and_sixty_degree_angles() {

@@ -15,7 +15,7 @@ use rayon::prelude::*;
 
 use super::state::State;
 use super::RemeshError;
-use crate::geometry::{triangle_angles, triangle_cross, triangle_quality};
+use crate::geometry::{triangle_angles, triangle_cross, triangle_min_angle_cos, triangle_quality};
 use crate::mesh::{EdgeId, FaceId, Handle, VertexId};
 
 /// Largest dihedral angle between the two faces of a flippable edge (20°), as a cosine.
@@ -24,9 +24,9 @@ const MAX_DIHEDRAL_COS: f64 = 0.939_692_620_785_908_4;
 const MIN_QUALITY: f64 = 0.3;
 /// Sweeps over the edges per pass at most.
 const MAX_SWEEPS: usize = 6;
-/// Smallest angle (30°, in radians) below which [`repair_slivers`] tries the
-/// triangle's longest edge.
-const REPAIR_ANGLE: f64 = 30.0 * std::f64::consts::PI / 180.0;
+/// Cosine of the smallest angle (30°) below which [`repair_slivers`] tries
+/// the triangle's longest edge.
+const REPAIR_COS: f64 = 0.866_025_403_784_438_6;
 
 /// Flips edges; returns the number of flips. The first sweep visits every
 /// edge, or only the edges of `seed` (ascending edge indices) when given.
@@ -162,7 +162,7 @@ pub(super) fn flip_edges(
 }
 
 /// Final sweep after the last iteration: a triangle whose smallest angle is
-/// below [`REPAIR_ANGLE`] gets its longest edge flipped when that raises the
+/// below 30° gets its longest edge flipped when that raises the
 /// smallest angle of the two faces, whatever it does to the valence (the
 /// valence flips only accept shape repairs that keep the valence, and a
 /// single obtuse triangle beside a feature line can survive them). The same
@@ -188,13 +188,18 @@ pub(super) fn repair_slivers(
             let h0 = m.face_halfedge(f);
             let h1 = m.next(h0);
             let h2 = m.next(h1);
-            let vs = m.face_vertices(f);
-            let ang = triangle_angles(vs.map(|v| m.position(v)));
-            if ang.iter().all(|&a| a >= REPAIR_ANGLE) {
+            let t = m.face_vertices(f).map(|v| m.position(v));
+            if triangle_min_angle_cos(t) <= REPAIR_COS {
                 continue;
             }
-            // The edge opposite the largest angle: corner 0 faces h1, 1 faces h2, 2 faces h0.
-            let k = (0..3).fold(0, |k, i| if ang[i] > ang[k] { i } else { k });
+            // The edge opposite the largest angle, which is the longest
+            // edge: corner 0 faces h1, 1 faces h2, 2 faces h0.
+            let len = [
+                t[1].distance_squared(t[2]),
+                t[2].distance_squared(t[0]),
+                t[0].distance_squared(t[1]),
+            ];
+            let k = (0..3).fold(0, |k, i| if len[i] > len[k] { i } else { k });
             let h = [h1, h2, h0][k];
             let e = h.edge();
             if st.line_of(e).is_some() || m.is_boundary_edge(e) || !m.can_flip(e) {
@@ -207,12 +212,10 @@ pub(super) fn repair_slivers(
             let (pa, pb, pc, pd) = (p(a), p(b), p(c), p(d));
             let old = [[pa, pb, pc], [pb, pa, pd]];
             let new = [[pc, pa, pd], [pd, pb, pc]];
-            let min2 = |t: [[DVec3; 3]; 2]| {
-                let x = triangle_angles(t[0]);
-                let y = triangle_angles(t[1]);
-                x.into_iter().chain(y).fold(f64::INFINITY, f64::min)
-            };
-            if min2(new) <= min2(old) + 1e-9 || !geometry_ok(old, new) {
+            // Cosine of the pair's smallest angle: lower is better.
+            let worst =
+                |t: [[DVec3; 3]; 2]| triangle_min_angle_cos(t[0]).max(triangle_min_angle_cos(t[1]));
+            if worst(new) >= worst(old) - 1e-12 || !geometry_ok(old, new) {
                 continue;
             }
             st.mesh.flip_edge(e);

@@ -22,7 +22,7 @@ use rayon::prelude::*;
 
 use super::state::{State, COLLAPSE_FACTOR, CORNER, SMOOTH, SPLIT_FACTOR};
 use crate::bvh::{closest_point_on_triangle, ClosestPoint};
-use crate::geometry::{triangle_angles, triangle_cross, triangle_quality};
+use crate::geometry::{triangle_cross, triangle_min_angle_cos, triangle_quality};
 use crate::mesh::{FaceId, Handle, VertexId};
 
 /// How often a guarded move is halved before it is dropped.
@@ -32,9 +32,9 @@ const MIN_QUALITY: f64 = 0.05;
 /// Largest normal change of a face caused by one move step (60°), as a cosine.
 const MAX_NORMAL_CHANGE_COS: f64 = 0.5;
 
-/// Smallest angle (30°, in radians) below which [`improve_slivers`] tries to
-/// move the smooth corners of a triangle.
-const SHAPE_ANGLE: f64 = 30.0 * std::f64::consts::PI / 180.0;
+/// Cosine of the smallest angle (30°) below which [`improve_slivers`] tries
+/// to move the corners of a triangle.
+const SHAPE_COS: f64 = 0.866_025_403_784_438_6;
 
 /// Edges at a vertex that a shape move may push out of the length band.
 const SHAPE_BAND_SLACK: usize = 1;
@@ -328,7 +328,7 @@ fn guarded_move_in_pool(st: &mut State, targets: &[DVec3], check_input: bool) ->
 }
 
 /// Final shape pass: every smooth vertex of a triangle whose smallest angle
-/// is below [`SHAPE_ANGLE`] tries a few positions and keeps the one, projected
+/// is below 30° tries a few positions and keeps the one, projected
 /// onto the input, that gives its one-ring the largest smallest angle.
 ///
 /// Relaxation puts a vertex at the centroid of its ring, which is the wrong
@@ -347,7 +347,13 @@ pub(super) fn improve_slivers(
     cancelled: &dyn Fn() -> bool,
 ) -> Result<u64, super::RemeshError> {
     let mut moved = 0u64;
+    // Each vertex is tried once per round; after the first round only the
+    // vertices next to one that moved (their rings changed) are tried again.
+    let nv = st.mesh.vertex_capacity();
+    let mut dirty = vec![true; nv];
     for _ in 0..SHAPE_ROUNDS {
+        let mut tried = vec![false; nv];
+        let mut next = vec![false; nv];
         let before = moved;
         for fi in 0..st.mesh.face_capacity() as u32 {
             if fi % 4096 == 0 && cancelled() {
@@ -358,21 +364,32 @@ pub(super) fn improve_slivers(
                 continue;
             }
             let t = st.mesh.face_positions(f);
-            if triangle_angles(t).iter().all(|&a| a >= SHAPE_ANGLE) {
+            if triangle_min_angle_cos(t) <= SHAPE_COS {
                 continue;
             }
             for v in st.mesh.face_vertices(f) {
+                if tried[v.idx()] || !dirty[v.idx()] {
+                    continue;
+                }
+                tried[v.idx()] = true;
                 let improved = match st.kind[v.idx()] {
                     CORNER => false,
                     SMOOTH => !st.mesh.is_boundary_vertex(v) && improve_vertex(st, v),
                     line => improve_line_vertex(st, v, line),
                 };
-                moved += improved as u64;
+                if improved {
+                    moved += 1;
+                    next[v.idx()] = true;
+                    for h in st.mesh.outgoing(v) {
+                        next[st.mesh.to_vertex(h).idx()] = true;
+                    }
+                }
             }
         }
         if moved == before {
             break;
         }
+        dirty = next;
     }
     Ok(moved)
 }
@@ -386,7 +403,8 @@ fn ring(st: &State, v: VertexId) -> Vec<(VertexId, VertexId)> {
         .collect()
 }
 
-/// Smallest angle of the ring of `v` with `v` at `p`, or `None` when a face
+/// Smallest angle of the ring of `v` with `v` at `p`, as minus its cosine
+/// (monotone in the angle, no `acos`), or `None` when a face
 /// degenerates, turns by 60° or more from `normals`, or faces away from `up`.
 fn ring_min_angle(
     st: &State,
@@ -408,7 +426,8 @@ fn ring_min_angle(
         {
             return None;
         }
-        worst = worst.min(triangle_angles(t).into_iter().fold(f64::INFINITY, f64::min));
+        // The smallest angle, as minus its cosine: larger is better.
+        worst = worst.min(-triangle_min_angle_cos(t));
     }
     Some(worst)
 }
@@ -439,13 +458,10 @@ fn improve_vertex(st: &mut State, v: VertexId) -> bool {
         return false;
     };
     let band_before = out_of_band(st, v, p);
-    let mut best: Option<(f64, ClosestPoint)> = None;
+    let mut best: Option<(f64, DVec3)> = None;
     for &(a, b) in &ring {
         let (pa, pb) = (m.position(a), m.position(b));
-        if triangle_angles([p, pa, pb])
-            .iter()
-            .all(|&x| x >= SHAPE_ANGLE)
-        {
+        if triangle_min_angle_cos([p, pa, pb]) <= SHAPE_COS {
             continue;
         }
         let ab = pb - pa;
@@ -457,24 +473,32 @@ fn improve_vertex(st: &mut State, v: VertexId) -> bool {
         }
         let apex = mid + perp * (0.5 * 3f64.sqrt() * ab.length());
         for t in [1.0, 0.5, 0.25] {
+            // Scored where it is, off the surface by a fraction of the
+            // chord sag; only the winner pays for a projection.
             let q = p + t * (apex - p);
-            let Some(cp) = walk_closest(st, q, st.hint_face[v.idx()], st.size[v.idx()]) else {
-                continue;
-            };
-            let up = st.input_normals[cp.face as usize];
-            if out_of_band(st, v, cp.point) > band_before + SHAPE_BAND_SLACK {
+            if out_of_band(st, v, q) > band_before + SHAPE_BAND_SLACK {
                 continue;
             }
-            if let Some(score) = ring_min_angle(st, &ring, &normals, cp.point, Some(up)) {
-                if score > current + 1e-9 && best.as_ref().is_none_or(|(s, _)| score > *s) {
-                    best = Some((score, cp));
+            if let Some(score) = ring_min_angle(st, &ring, &normals, q, Some(up)) {
+                if score > current + 1e-9 && best.is_none_or(|(s, _)| score > s) {
+                    best = Some((score, q));
                 }
             }
         }
     }
-    let Some((_, cp)) = best else {
+    let Some((_, q)) = best else {
         return false;
     };
+    let Some(cp) = walk_closest(st, q, st.hint_face[v.idx()], st.size[v.idx()]) else {
+        return false;
+    };
+    let up = st.input_normals[cp.face as usize];
+    let kept = out_of_band(st, v, cp.point) <= band_before + SHAPE_BAND_SLACK
+        && ring_min_angle(st, &ring, &normals, cp.point, Some(up))
+            .is_some_and(|score| score > current + 1e-9);
+    if !kept {
+        return false;
+    }
     st.mesh.set_position(v, cp.point);
     st.hint_face[v.idx()] = cp.face;
     if let Some(field) = &st.sizing {

@@ -16,7 +16,7 @@ use rayon::prelude::*;
 use super::state::State;
 use super::RemeshError;
 use crate::geometry::{triangle_angles, triangle_cross, triangle_min_angle_cos, triangle_quality};
-use crate::mesh::{EdgeId, FaceId, Handle, VertexId};
+use crate::mesh::{EdgeId, FaceId, HalfedgeId, Handle, Mesh, VertexId};
 
 /// Largest dihedral angle between the two faces of a flippable edge (20°), as a cosine.
 const MAX_DIHEDRAL_COS: f64 = 0.939_692_620_785_908_4;
@@ -70,20 +70,8 @@ pub(super) fn flip_edges(
                         if m.is_edge_deleted(e) || m.is_boundary_edge(e) {
                             return false;
                         }
-                        let h = e.halfedge(0);
-                        let o = h.twin();
-                        let vs = [
-                            m.to_vertex(o),
-                            m.to_vertex(h),
-                            m.to_vertex(m.next(h)),
-                            m.to_vertex(m.next(o)),
-                        ];
-                        let d = |k: usize, delta: i32| {
-                            let x = valence[vs[k].idx()] + delta - target[vs[k].idx()];
-                            x * x
-                        };
-                        let before = d(0, 0) + d(1, 0) + d(2, 0) + d(3, 0);
-                        let after = d(0, -1) + d(1, -1) + d(2, 1) + d(3, 1);
+                        let (before, after) =
+                            deviation_change(valence, target, quad(m, e.halfedge(0)));
                         after <= before
                     })
                     .collect()
@@ -104,25 +92,13 @@ pub(super) fn flip_edges(
                 continue;
             }
             let m = &st.mesh;
-            let h = e.halfedge(0);
-            let o = h.twin();
-            let a = m.to_vertex(o);
-            let b = m.to_vertex(h);
-            let c = m.to_vertex(m.next(h));
-            let d = m.to_vertex(m.next(o));
-            let dev = |v: VertexId, delta: i32| {
-                let x = valence[v.idx()] + delta - target[v.idx()];
-                x * x
-            };
-            let before = dev(a, 0) + dev(b, 0) + dev(c, 0) + dev(d, 0);
-            let after = dev(a, -1) + dev(b, -1) + dev(c, 1) + dev(d, 1);
+            let q = quad(m, e.halfedge(0));
+            let [a, b, c, d] = q;
+            let (before, after) = deviation_change(&valence, &target, q);
             if after > before {
                 continue;
             }
-            let p = |v: VertexId| m.position(v);
-            let (pa, pb, pc, pd) = (p(a), p(b), p(c), p(d));
-            let old = [[pa, pb, pc], [pb, pa, pd]];
-            let new = [[pc, pa, pd], [pd, pb, pc]];
+            let (old, new) = quad_triangles(m, q);
             let valence_gain = after < before;
             if !valence_gain && !improves_delaunay(old) {
                 continue;
@@ -205,13 +181,7 @@ pub(super) fn repair_slivers(
             if st.line_of(e).is_some() || m.is_boundary_edge(e) || !m.can_flip(e) {
                 continue;
             }
-            let o = h.twin();
-            let (a, b) = (m.to_vertex(o), m.to_vertex(h));
-            let (c, d) = (m.to_vertex(m.next(h)), m.to_vertex(m.next(o)));
-            let p = |v: VertexId| m.position(v);
-            let (pa, pb, pc, pd) = (p(a), p(b), p(c), p(d));
-            let old = [[pa, pb, pc], [pb, pa, pd]];
-            let new = [[pc, pa, pd], [pd, pb, pc]];
+            let (old, new) = quad_triangles(m, quad(m, h));
             // Cosine of the pair's smallest angle: lower is better.
             let worst =
                 |t: [[DVec3; 3]; 2]| triangle_min_angle_cos(t[0]).max(triangle_min_angle_cos(t[1]));
@@ -227,6 +197,39 @@ pub(super) fn repair_slivers(
         }
     }
     Ok(count)
+}
+
+/// The quad around the edge of `h`: its ends `a` (tail) and `b` (head),
+/// then `c` opposite it in `h`'s face and `d` in the twin's. A flip replaces
+/// `ab` by `cd`.
+fn quad(m: &Mesh, h: HalfedgeId) -> [VertexId; 4] {
+    let o = h.twin();
+    [
+        m.to_vertex(o),
+        m.to_vertex(h),
+        m.to_vertex(m.next(h)),
+        m.to_vertex(m.next(o)),
+    ]
+}
+
+/// The two faces of `quad` before and after the flip, counter-clockwise.
+fn quad_triangles(m: &Mesh, [a, b, c, d]: [VertexId; 4]) -> ([[DVec3; 3]; 2], [[DVec3; 3]; 2]) {
+    let [pa, pb, pc, pd] = [a, b, c, d].map(|v| m.position(v));
+    ([[pa, pb, pc], [pb, pa, pd]], [[pc, pa, pd], [pd, pb, pc]])
+}
+
+/// Sum of squared valence deviations of `quad`'s vertices before and after
+/// its flip (`a`, `b` lose an edge, `c`, `d` gain one).
+fn deviation_change(valence: &[i32], target: &[i32], quad: [VertexId; 4]) -> (i32, i32) {
+    let dev = |v: VertexId, delta: i32| {
+        let x = valence[v.idx()] + delta - target[v.idx()];
+        x * x
+    };
+    let [a, b, c, d] = quad;
+    (
+        dev(a, 0) + dev(b, 0) + dev(c, 0) + dev(d, 0),
+        dev(a, -1) + dev(b, -1) + dev(c, 1) + dev(d, 1),
+    )
 }
 
 /// Whether the edge shared by `old` violates the Delaunay condition: the

@@ -394,42 +394,76 @@ pub(super) fn improve_slivers(
     Ok(moved)
 }
 
-/// The ring faces of `v` as (a, b) with (v, a, b) counter-clockwise.
-fn ring(st: &State, v: VertexId) -> Vec<(VertexId, VertexId)> {
-    let m = &st.mesh;
-    m.outgoing(v)
-        .filter(|&h| !m.is_boundary_halfedge(h))
-        .map(|h| (m.to_vertex(h), m.to_vertex(m.next(h))))
-        .collect()
+/// The one-ring of a vertex as it stands, against which the shape pass
+/// scores candidate positions. A score is the ring's smallest angle as minus
+/// its cosine (monotone in the angle, no `acos`).
+struct Probe {
+    v: VertexId,
+    /// The ring faces as (a, b) with (v, a, b) counter-clockwise.
+    ring: Vec<(VertexId, VertexId)>,
+    /// Their normals (unnormalised) with `v` where it is.
+    normals: Vec<DVec3>,
+    /// The score where `v` is.
+    current: f64,
+    /// Edges at `v` outside the length band where `v` is.
+    out_of_band: usize,
 }
 
-/// Smallest angle of the ring of `v` with `v` at `p`, as minus its cosine
-/// (monotone in the angle, no `acos`), or `None` when a face
-/// degenerates, turns by 60° or more from `normals`, or faces away from `up`.
-fn ring_min_angle(
-    st: &State,
-    ring: &[(VertexId, VertexId)],
-    normals: &[DVec3],
-    p: DVec3,
-    up: Option<DVec3>,
-) -> Option<f64> {
-    let m = &st.mesh;
-    let mut worst = f64::INFINITY;
-    for (&(a, b), &n0) in ring.iter().zip(normals) {
-        let t = [p, m.position(a), m.position(b)];
-        let n = triangle_cross(t);
-        let ln = n.length();
-        if ln <= 0.0
-            || n.dot(n0) <= MAX_NORMAL_CHANGE_COS * ln * n0.length()
-            || up.is_some_and(|u| n.dot(u) <= 0.0)
-            || triangle_quality(t) < MIN_QUALITY
-        {
+impl Probe {
+    /// The probe of `v`, or `None` when its ring already fails the checks
+    /// (see [`Probe::score`]) where it is.
+    fn new(st: &State, v: VertexId, up: Option<DVec3>) -> Option<Self> {
+        let m = &st.mesh;
+        let p = m.position(v);
+        let ring: Vec<(VertexId, VertexId)> = m
+            .outgoing(v)
+            .filter(|&h| !m.is_boundary_halfedge(h))
+            .map(|h| (m.to_vertex(h), m.to_vertex(m.next(h))))
+            .collect();
+        let normals = ring
+            .iter()
+            .map(|&(a, b)| triangle_cross([p, m.position(a), m.position(b)]))
+            .collect();
+        let mut probe = Self {
+            v,
+            ring,
+            normals,
+            current: f64::NEG_INFINITY,
+            out_of_band: out_of_band(st, v, p),
+        };
+        probe.current = probe.score(st, p, up)?;
+        Some(probe)
+    }
+
+    /// The score with `v` at `p`, or `None` when a ring face degenerates,
+    /// turns by 60° or more, or faces away from `up`.
+    fn score(&self, st: &State, p: DVec3, up: Option<DVec3>) -> Option<f64> {
+        let m = &st.mesh;
+        let mut worst = f64::INFINITY;
+        for (&(a, b), &n0) in self.ring.iter().zip(&self.normals) {
+            let t = [p, m.position(a), m.position(b)];
+            let n = triangle_cross(t);
+            let ln = n.length();
+            if ln <= 0.0
+                || n.dot(n0) <= MAX_NORMAL_CHANGE_COS * ln * n0.length()
+                || up.is_some_and(|u| n.dot(u) <= 0.0)
+                || triangle_quality(t) < MIN_QUALITY
+            {
+                return None;
+            }
+            worst = worst.min(-triangle_min_angle_cos(t));
+        }
+        Some(worst)
+    }
+
+    /// The score at `p` when it beats the current one and at most
+    /// [`SHAPE_BAND_SLACK`] more edges leave the band.
+    fn gain(&self, st: &State, p: DVec3, up: Option<DVec3>) -> Option<f64> {
+        if out_of_band(st, self.v, p) > self.out_of_band + SHAPE_BAND_SLACK {
             return None;
         }
-        // The smallest angle, as minus its cosine: larger is better.
-        worst = worst.min(-triangle_min_angle_cos(t));
+        self.score(st, p, up).filter(|&s| s > self.current + 1e-9)
     }
-    Some(worst)
 }
 
 /// How many edges at `v` (placed at `p`) leave the band [4/5, 4/3] of their
@@ -445,21 +479,24 @@ fn out_of_band(st: &State, v: VertexId, p: DVec3) -> usize {
         .count()
 }
 
+/// Records that `v` now sits over `cp`: its hint face and, under a sizing
+/// field, its target.
+fn settle(st: &mut State, v: VertexId, cp: &ClosestPoint) {
+    st.hint_face[v.idx()] = cp.face;
+    if let Some(field) = &st.sizing {
+        st.size[v.idx()] = field.size_at(cp.face, cp.barycentric);
+    }
+}
+
 fn improve_vertex(st: &mut State, v: VertexId) -> bool {
-    let m = &st.mesh;
-    let p = m.position(v);
-    let ring = ring(st, v);
-    let normals: Vec<DVec3> = ring
-        .iter()
-        .map(|&(a, b)| triangle_cross([p, m.position(a), m.position(b)]))
-        .collect();
     let up = st.input_normals[st.hint_face[v.idx()] as usize];
-    let Some(current) = ring_min_angle(st, &ring, &normals, p, Some(up)) else {
+    let Some(probe) = Probe::new(st, v, Some(up)) else {
         return false;
     };
-    let band_before = out_of_band(st, v, p);
+    let m = &st.mesh;
+    let p = m.position(v);
     let mut best: Option<(f64, DVec3)> = None;
-    for &(a, b) in &ring {
+    for &(a, b) in &probe.ring {
         let (pa, pb) = (m.position(a), m.position(b));
         if triangle_min_angle_cos([p, pa, pb]) <= SHAPE_COS {
             continue;
@@ -476,11 +513,8 @@ fn improve_vertex(st: &mut State, v: VertexId) -> bool {
             // Scored where it is, off the surface by a fraction of the
             // chord sag; only the winner pays for a projection.
             let q = p + t * (apex - p);
-            if out_of_band(st, v, q) > band_before + SHAPE_BAND_SLACK {
-                continue;
-            }
-            if let Some(score) = ring_min_angle(st, &ring, &normals, q, Some(up)) {
-                if score > current + 1e-9 && best.is_none_or(|(s, _)| score > s) {
+            if let Some(score) = probe.gain(st, q, Some(up)) {
+                if best.is_none_or(|(s, _)| score > s) {
                     best = Some((score, q));
                 }
             }
@@ -493,17 +527,11 @@ fn improve_vertex(st: &mut State, v: VertexId) -> bool {
         return false;
     };
     let up = st.input_normals[cp.face as usize];
-    let kept = out_of_band(st, v, cp.point) <= band_before + SHAPE_BAND_SLACK
-        && ring_min_angle(st, &ring, &normals, cp.point, Some(up))
-            .is_some_and(|score| score > current + 1e-9);
-    if !kept {
+    if probe.gain(st, cp.point, Some(up)).is_none() {
         return false;
     }
     st.mesh.set_position(v, cp.point);
-    st.hint_face[v.idx()] = cp.face;
-    if let Some(field) = &st.sizing {
-        st.size[v.idx()] = field.size_at(cp.face, cp.barycentric);
-    }
+    settle(st, v, &cp);
     true
 }
 
@@ -523,15 +551,9 @@ fn improve_line_vertex(st: &mut State, v: VertexId, line: u32) -> bool {
     if neighbours.len() != 2 {
         return false;
     }
-    let ring = ring(st, v);
-    let normals: Vec<DVec3> = ring
-        .iter()
-        .map(|&(a, b)| triangle_cross([p, m.position(a), m.position(b)]))
-        .collect();
-    let Some(current) = ring_min_angle(st, &ring, &normals, p, None) else {
+    let Some(probe) = Probe::new(st, v, None) else {
         return false;
     };
-    let band_before = out_of_band(st, v, p);
     let hint = st.hint_seg[v.idx()];
     let mut best: Option<(f64, DVec3, u32)> = None;
     for &n in &neighbours {
@@ -539,11 +561,8 @@ fn improve_line_vertex(st: &mut State, v: VertexId, line: u32) -> bool {
             let lp = st
                 .features
                 .closest_on_line_near(line, p + t * (n - p), hint);
-            if out_of_band(st, v, lp.point) > band_before + SHAPE_BAND_SLACK {
-                continue;
-            }
-            if let Some(score) = ring_min_angle(st, &ring, &normals, lp.point, None) {
-                if score > current + 1e-9 && best.is_none_or(|(s, _, _)| score > s) {
+            if let Some(score) = probe.gain(st, lp.point, None) {
+                if best.is_none_or(|(s, _, _)| score > s) {
                     best = Some((score, lp.point, lp.segment));
                 }
             }
@@ -555,10 +574,7 @@ fn improve_line_vertex(st: &mut State, v: VertexId, line: u32) -> bool {
     st.mesh.set_position(v, q);
     st.hint_seg[v.idx()] = seg;
     if let Some(cp) = st.index.closest_point_with_hint(q, st.hint_face[v.idx()]) {
-        st.hint_face[v.idx()] = cp.face;
-        if let Some(field) = &st.sizing {
-            st.size[v.idx()] = field.size_at(cp.face, cp.barycentric);
-        }
+        settle(st, v, &cp);
     }
     true
 }

@@ -29,6 +29,8 @@ use crate::mesh::{FaceId, Handle, VertexId};
 const MAX_HALVINGS: u32 = 5;
 /// A move may not leave a face with quality below this unless it was already worse.
 const MIN_QUALITY: f64 = 0.05;
+/// 2·√3: quality q = 2·√3·|cross| / Σ edge².
+const SQRT_12: f64 = 3.464_101_615_137_754_6;
 /// Largest normal change of a face caused by one move step (60°), as a cosine.
 const MAX_NORMAL_CHANGE_COS: f64 = 0.5;
 
@@ -38,6 +40,9 @@ const SHAPE_COS: f64 = 0.866_025_403_784_438_6;
 
 /// Edges at a vertex that a shape move may push out of the length band.
 const SHAPE_BAND_SLACK: usize = 1;
+/// Face-to-face steps of the projection walk before it gives up and asks
+/// the BVH.
+const WALK_STEPS: usize = 16;
 /// Sweeps of [`improve_slivers`] at most.
 const SHAPE_ROUNDS: usize = 3;
 
@@ -175,12 +180,16 @@ pub(super) fn project_to_input(st: &mut State) -> u64 {
     guarded_move(st, &targets, true)
 }
 
-/// Closest point on the input from a hint face: walk across the faces around
-/// the current best face while that gets closer (vertices move little
-/// between steps, so this usually ends in one or two rounds), and fall back
-/// to the global BVH query, bounded by the walk's result, when the point is
-/// not close to the surface relative to the local target size or the walk
-/// does not settle.
+/// Closest point on the input from a hint face: walk from face to face
+/// while that gets closer, and fall back to the global BVH query, bounded by
+/// the walk's result, when the point is not close to the surface relative to
+/// the local target size or the walk does not settle.
+///
+/// Each step tries the three faces across the current face's edges (which
+/// also catches a closer face folded up toward the point in a concave
+/// region) and, when the closest point is a corner of the current face, the
+/// faces around that corner. Vertices move little between iterations, so the
+/// walk usually ends after one or two steps of three or four triangle tests.
 fn walk_closest(st: &State, p: DVec3, hint: u32, size: f64) -> Option<ClosestPoint> {
     let tris = st.index.triangles();
     let pos = st.index.positions();
@@ -195,28 +204,44 @@ fn walk_closest(st: &State, p: DVec3, hint: u32, size: f64) -> Option<ClosestPoi
     };
     let (mut best_d, mut best_q, mut best_b) = eval(hint);
     let mut best_f = hint;
+    let mut prev = u32::MAX;
     let mut settled = false;
-    for _ in 0..8 {
+    for _ in 0..WALK_STEPS {
         let f = best_f;
-        for &v in &tris[f as usize] {
-            let (s, e) = (
-                st.vertex_face_start[v as usize] as usize,
-                st.vertex_face_start[v as usize + 1] as usize,
-            );
-            for &g in &st.vertex_faces[s..e] {
-                if g == f {
-                    continue;
-                }
-                let (d, q, b) = eval(g);
-                if d < best_d || (d == best_d && g < best_f) {
-                    (best_d, best_q, best_b, best_f) = (d, q, b, g);
-                }
+        for g in st.face_neighbors[f as usize] {
+            if g == u32::MAX || g == prev {
+                continue;
+            }
+            let (d, q, b) = eval(g);
+            if d < best_d || (d == best_d && g < best_f) {
+                (best_d, best_q, best_b, best_f) = (d, q, b, g);
             }
         }
         if best_f == f {
-            settled = true;
-            break;
+            // At a corner of f, the closer face may share only that corner.
+            let corner = (0..3).find(|&k| best_b[k] == 1.0);
+            if let Some(k) = corner {
+                let v = tris[f as usize][k] as usize;
+                let (s, e) = (
+                    st.vertex_face_start[v] as usize,
+                    st.vertex_face_start[v + 1] as usize,
+                );
+                for &g in &st.vertex_faces[s..e] {
+                    if g == f || st.face_neighbors[f as usize].contains(&g) {
+                        continue;
+                    }
+                    let (d, q, b) = eval(g);
+                    if d < best_d || (d == best_d && g < best_f) {
+                        (best_d, best_q, best_b, best_f) = (d, q, b, g);
+                    }
+                }
+            }
+            if best_f == f {
+                settled = true;
+                break;
+            }
         }
+        prev = f;
     }
     if settled && best_d.is_finite() && best_d <= (0.25 * size) * (0.25 * size) {
         return Some(ClosestPoint {
@@ -242,18 +267,6 @@ fn guarded_move_in_pool(st: &mut State, targets: &[DVec3], check_input: bool) ->
     let nv = st.mesh.vertex_capacity();
     let old: Vec<DVec3> = st.mesh.positions().to_vec();
     let moving: Vec<bool> = (0..nv).map(|i| targets[i] != old[i]).collect();
-    let old_normals: Vec<(DVec3, f64)> = (0..st.mesh.face_capacity() as u32)
-        .into_par_iter()
-        .map(|f| {
-            let f = FaceId(f);
-            if st.mesh.is_face_deleted(f) {
-                (DVec3::ZERO, 0.0)
-            } else {
-                let t = st.mesh.face_positions(f);
-                (triangle_cross(t), triangle_quality(t))
-            }
-        })
-        .collect();
     let mut scale = vec![1.0f64; nv];
     let mut limited = vec![false; nv];
     for round in 0..=MAX_HALVINGS + 1 {
@@ -271,6 +284,7 @@ fn guarded_move_in_pool(st: &mut State, targets: &[DVec3], check_input: bool) ->
         let m = &st.mesh;
         let input_normals = &st.input_normals;
         let hint_face = &st.hint_face;
+        let old = &old;
         let bad: Vec<FaceId> = (0..m.face_capacity() as u32)
             .into_par_iter()
             .map(FaceId)
@@ -282,15 +296,18 @@ fn guarded_move_in_pool(st: &mut State, targets: &[DVec3], check_input: bool) ->
                 if !vs.iter().any(|v| moving[v.idx()] && scale[v.idx()] > 0.0) {
                     return false;
                 }
-                let t = m.face_positions(f);
+                let t = vs.map(|v| m.position(v));
+                let t0 = vs.map(|v| old[v.idx()]);
                 let n = triangle_cross(t);
-                let (n0, q0) = old_normals[f.idx()];
+                let n0 = triangle_cross(t0);
                 let ln = n.length();
                 if ln <= 0.0 || n.dot(n0) <= MAX_NORMAL_CHANGE_COS * ln * n0.length() {
                     return true;
                 }
-                let q = triangle_quality(t);
-                if q < MIN_QUALITY && q < q0 {
+                // Quality 2·√3·|n| / Σ edge² below the floor, and worse than before.
+                if SQRT_12 * ln < MIN_QUALITY * squared_edge_sum(t)
+                    && triangle_quality(t) < triangle_quality(t0)
+                {
                     return true;
                 }
                 if check_input {
@@ -325,6 +342,12 @@ fn guarded_move_in_pool(st: &mut State, targets: &[DVec3], check_input: bool) ->
         }
     }
     limited.iter().filter(|&&l| l).count() as u64
+}
+
+/// Sum of the squared edge lengths of triangle `t`.
+#[inline]
+fn squared_edge_sum(t: [DVec3; 3]) -> f64 {
+    (t[1] - t[0]).length_squared() + (t[2] - t[1]).length_squared() + (t[0] - t[2]).length_squared()
 }
 
 /// Final shape pass: every smooth vertex of a triangle whose smallest angle

@@ -53,6 +53,10 @@ pub(super) struct State {
     pub vertex_face_start: Vec<u32>,
     /// Faces around each input vertex, grouped by vertex.
     pub vertex_faces: Vec<u32>,
+    /// Per input face `[a, b, c]`: the faces across its edges `ab`, `bc` and
+    /// `ca`, or `u32::MAX` on a boundary (one of them where the edge is
+    /// non-manifold).
+    pub face_neighbors: Vec<[u32; 3]>,
     /// Feature-line vertices kept fixed where the input's line turns.
     pub fixed_turns: u64,
     /// The worker pool of the parallel passes.
@@ -74,6 +78,7 @@ pub(super) struct PartialState {
     input_normals: Vec<DVec3>,
     vertex_face_start: Vec<u32>,
     vertex_faces: Vec<u32>,
+    face_neighbors: Vec<[u32; 3]>,
     fixed_turns: u64,
 }
 
@@ -98,6 +103,7 @@ impl State {
             input_normals: p.input_normals,
             vertex_face_start: p.vertex_face_start,
             vertex_faces: p.vertex_faces,
+            face_neighbors: p.face_neighbors,
             fixed_turns: p.fixed_turns,
             pool: std::sync::Arc::new(pool),
         })
@@ -215,7 +221,9 @@ impl State {
             .map(|f| index.face_normal(f))
             .collect();
         let (vertex_face_start, vertex_faces) = vertex_face_csr(&tm);
+        let face_neighbors = face_neighbors(&tm, &vertex_face_start, &vertex_faces);
         Ok(PartialState {
+            face_neighbors,
             fixed_turns,
             vertex_face_start,
             vertex_faces,
@@ -454,6 +462,29 @@ fn vertex_face_csr(tm: &TriMesh) -> (Vec<u32>, Vec<u32>) {
         }
     }
     (start, faces)
+}
+
+/// The faces across the three edges of every input face (see
+/// [`State::face_neighbors`]), found through the vertex-face lists.
+fn face_neighbors(tm: &TriMesh, start: &[u32], faces: &[u32]) -> Vec<[u32; 3]> {
+    tm.triangles
+        .par_iter()
+        .enumerate()
+        .map(|(f, t)| {
+            let mut nb = [u32::MAX; 3];
+            for (k, slot) in nb.iter_mut().enumerate() {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                let ring = &faces[start[a as usize] as usize..start[a as usize + 1] as usize];
+                if let Some(&g) = ring
+                    .iter()
+                    .find(|&&g| g as usize != f && tm.triangles[g as usize].contains(&b))
+                {
+                    *slot = g;
+                }
+            }
+            nb
+        })
+        .collect()
 }
 
 fn uniform_target(mesh: &Mesh, o: &RemeshOptions, diag: f64, area: f64) -> f64 {

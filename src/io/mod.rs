@@ -22,6 +22,7 @@ mod obj;
 mod off;
 mod ply;
 mod stl;
+mod text;
 
 use std::collections::HashMap;
 use std::panic::{catch_unwind, AssertUnwindSafe};

@@ -14,6 +14,7 @@ use std::path::Path;
 
 use glam::DVec3;
 
+use super::text::{push_lines, push_u64, push_vec3_line};
 use super::{Format, Imported, IoError};
 use crate::{Label, Material, TriMesh};
 
@@ -207,32 +208,46 @@ pub(super) fn write(mesh: &TriMesh, normals: bool) -> Vec<u8> {
         mesh.positions.len(),
         mesh.triangles.len()
     );
-    for p in &mesh.positions {
-        let _ = writeln!(out, "v {} {} {}", p.x, p.y, p.z);
-    }
+    push_lines(&mut out, &mesh.positions, 64, |o, _, &p| {
+        push_vec3_line(o, b"v ", p)
+    });
     if normals {
-        for n in &mesh.normals {
-            let _ = writeln!(out, "vn {} {} {}", n.x, n.y, n.z);
-        }
+        push_lines(&mut out, &mesh.normals, 64, |o, _, &n| {
+            push_vec3_line(o, b"vn ", n)
+        });
     }
     let names = label_names(mesh);
-    let mut current = None;
-    for (f, t) in mesh.triangles.iter().enumerate() {
-        if !names.is_empty() {
+    if names.is_empty() {
+        push_lines(&mut out, &mesh.triangles, 40, |o, _, t| {
+            push_face_line(o, t, normals)
+        });
+    } else {
+        let mut current = None;
+        for (f, t) in mesh.triangles.iter().enumerate() {
             let l = mesh.face_label(f) as usize;
             if current != Some(l) {
                 current = Some(l);
                 let _ = writeln!(out, "usemtl {}", names[l]);
             }
-        }
-        let [a, b, c] = t.map(|v| v as u64 + 1);
-        if normals {
-            let _ = writeln!(out, "f {a}//{a} {b}//{b} {c}//{c}");
-        } else {
-            let _ = writeln!(out, "f {a} {b} {c}");
+            push_face_line(&mut out, t, normals);
         }
     }
     out
+}
+
+/// Appends `f a b c` (or `f a//a b//b c//c` with normals), 1-based.
+fn push_face_line(out: &mut Vec<u8>, t: &[u32; 3], normals: bool) {
+    out.extend_from_slice(b"f");
+    for &v in t {
+        let i = v as u64 + 1;
+        out.push(b' ');
+        push_u64(out, i);
+        if normals {
+            out.extend_from_slice(b"//");
+            push_u64(out, i);
+        }
+    }
+    out.push(b'\n');
 }
 
 /// One distinct, single-line `usemtl` name per label (the material name,

@@ -11,6 +11,7 @@ use std::io::Write;
 use glam::DVec3;
 
 use super::format::is_off_keyword;
+use super::text::{push_lines, push_u64, push_vec3_line};
 use super::{Format, Imported, IoError};
 use crate::TriMesh;
 
@@ -152,11 +153,16 @@ pub(super) fn write(mesh: &TriMesh) -> Vec<u8> {
         mesh.positions.len(),
         mesh.triangles.len()
     );
-    for p in &mesh.positions {
-        let _ = writeln!(out, "{} {} {}", p.x, p.y, p.z);
-    }
-    for [a, b, c] in &mesh.triangles {
-        let _ = writeln!(out, "3 {a} {b} {c}");
-    }
+    push_lines(&mut out, &mesh.positions, 60, |o, _, &p| {
+        push_vec3_line(o, b"", p)
+    });
+    push_lines(&mut out, &mesh.triangles, 24, |o, _, t| {
+        o.push(b'3');
+        for &v in t {
+            o.push(b' ');
+            push_u64(o, v as u64);
+        }
+        o.push(b'\n');
+    });
     out
 }

@@ -82,7 +82,12 @@ pub(super) fn collapse_short_edges(
             continue;
         }
         let mut best: Option<(f64, HalfedgeId, DVec3)> = None;
-        for k in 0..2 {
+        // Between two smooth interior vertices both directions give the same
+        // midpoint and the same one-ring: one test decides.
+        let symmetric = st.kind[a.idx()] == SMOOTH
+            && st.kind[b.idx()] == SMOOTH
+            && !st.mesh.is_boundary_edge(e);
+        for k in 0..if symmetric { 1 } else { 2 } {
             let h = e.halfedge(k);
             if let Some(p) = allowed_position(st, h) {
                 if !valence_ok(st, h) || !st.mesh.can_collapse(h) {
@@ -154,11 +159,13 @@ fn collapse_quality(st: &State, h: HalfedgeId, p: DVec3, stretch: f64) -> Option
         if v == v1 && !moved_v1 {
             continue;
         }
+        let pv = m.position(v);
         for g in m.outgoing(v) {
             let w = m.to_vertex(g);
+            let pw = m.position(w);
             if w != other {
                 let limit = stretch * SPLIT_FACTOR * 0.5 * (size_after + st.size[w.idx()]);
-                if p.distance_squared(m.position(w)) > limit * limit {
+                if p.distance_squared(pw) > limit * limit {
                     return None;
                 }
             }
@@ -166,13 +173,11 @@ fn collapse_quality(st: &State, h: HalfedgeId, p: DVec3, stretch: f64) -> Option
             if !f.is_valid() || removed.contains(&f) {
                 continue;
             }
-            let old = m.face_positions(f);
-            let mut new = old;
-            for (k, c) in m.face_vertices(f).iter().enumerate() {
-                if *c == v0 || *c == v1 {
-                    new[k] = p;
-                }
-            }
+            // Face (v, w, x) in its own order; only the two removed faces
+            // hold both ends of the edge, so only v moves to p.
+            let x = m.to_vertex(m.next(g));
+            let old = [pv, pw, m.position(x)];
+            let new = [p, old[1], old[2]];
             let (n_old, n_new) = (triangle_cross(old), triangle_cross(new));
             let (l_old, l_new) = (n_old.length(), n_new.length());
             if l_new <= 0.0 || n_old.dot(n_new) <= MAX_NORMAL_CHANGE_COS * l_old * l_new {

@@ -137,9 +137,12 @@ pub struct IterationReport {
     pub collapses: u64,
     /// Edges flipped.
     pub flips: u64,
-    /// Vertex moves in relaxation that were halved at least once by the guard.
+    /// Vertex moves in relaxation that were halved at least once by the
+    /// guard, when relaxation runs without projection.
     pub relax_moves_limited: u64,
-    /// Vertex moves in projection that were halved at least once by the guard.
+    /// Vertex moves in projection that were halved at least once by the
+    /// guard. With both passes on (the default), each vertex makes one
+    /// guarded move to the projection of its relaxed position, counted here.
     pub project_moves_limited: u64,
     /// Faces at the end of the iteration.
     pub faces: u64,
@@ -301,7 +304,19 @@ fn run(
             report.seconds.flip += t.elapsed().as_secs_f64();
         }
         for _ in 0..options.relaxation_steps.max(1) {
-            if options.relax && options.relaxation_steps > 0 {
+            let relax = options.relax && options.relaxation_steps > 0;
+            if relax && options.project {
+                // One guarded move to the projection of the relaxed point.
+                notify(observer, it, Pass::Relax)?;
+                notify(observer, it, Pass::Project)?;
+                let t = Instant::now();
+                let (limited, relax_seconds) = relax::relax_and_project(&mut st);
+                ir.project_moves_limited += limited;
+                report.seconds.relax += relax_seconds;
+                report.seconds.project += t.elapsed().as_secs_f64() - relax_seconds;
+                continue;
+            }
+            if relax {
                 notify(observer, it, Pass::Relax)?;
                 let t = Instant::now();
                 ir.relax_moves_limited += relax::relax_tangentially(&mut st);

@@ -10,6 +10,9 @@
 //! coplanar, so a flip never changes the shape; both new faces must keep the
 //! orientation and must not be degenerate or much worse than before.
 
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -149,54 +152,119 @@ pub(super) fn repair_slivers(
     st: &mut State,
     cancelled: &dyn Fn() -> bool,
 ) -> Result<u64, RemeshError> {
+    // Only a flip changes a face or the quad across its longest edge, so a
+    // sweep visits the faces below 30° at the start and, after that, only
+    // the faces of flipped quads and their neighbours, in index order (a
+    // face queued behind the cursor waits for the next sweep): the same
+    // visits that matter as a full scan, without the scan.
+    let mut work: Vec<u32> = {
+        let m = &st.mesh;
+        st.pool.install(|| {
+            (0..m.face_capacity() as u32)
+                .into_par_iter()
+                .filter(|&fi| {
+                    let f = FaceId(fi);
+                    !m.is_face_deleted(f)
+                        && triangle_min_angle_cos(m.face_positions(f)) > REPAIR_COS
+                })
+                .collect()
+        })
+    };
+    let mut in_heap = vec![false; st.mesh.face_capacity()];
+    let mut in_next = vec![false; st.mesh.face_capacity()];
     let mut count = 0u64;
+    let mut visited = 0u64;
     for _ in 0..MAX_SWEEPS {
+        if work.is_empty() {
+            break;
+        }
+        for &f in &work {
+            in_next[f as usize] = false;
+            in_heap[f as usize] = true;
+        }
+        let mut heap: BinaryHeap<Reverse<u32>> = work.iter().map(|&f| Reverse(f)).collect();
+        let mut next: Vec<u32> = Vec::new();
         let mut flipped = 0u64;
-        for fi in 0..st.mesh.face_capacity() as u32 {
-            if fi % 4096 == 0 && cancelled() {
+        while let Some(Reverse(fi)) = heap.pop() {
+            in_heap[fi as usize] = false;
+            visited += 1;
+            if visited % 4096 == 0 && cancelled() {
                 return Err(RemeshError::Cancelled);
             }
-            let f = FaceId(fi);
-            if st.mesh.is_face_deleted(f) {
+            let Some(e) = sliver_flip(st, FaceId(fi)) else {
                 continue;
-            }
-            let m = &st.mesh;
-            let h0 = m.face_halfedge(f);
-            let h1 = m.next(h0);
-            let h2 = m.next(h1);
-            let t = m.face_vertices(f).map(|v| m.position(v));
-            if triangle_min_angle_cos(t) <= REPAIR_COS {
-                continue;
-            }
-            // The edge opposite the largest angle, which is the longest
-            // edge: corner 0 faces h1, 1 faces h2, 2 faces h0.
-            let len = [
-                t[1].distance_squared(t[2]),
-                t[2].distance_squared(t[0]),
-                t[0].distance_squared(t[1]),
-            ];
-            let k = (0..3).fold(0, |k, i| if len[i] > len[k] { i } else { k });
-            let h = [h1, h2, h0][k];
-            let e = h.edge();
-            if st.line_of(e).is_some() || m.is_boundary_edge(e) || !m.can_flip(e) {
-                continue;
-            }
-            let (old, new) = quad_triangles(m, quad(m, h));
-            // Cosine of the pair's smallest angle: lower is better.
-            let worst =
-                |t: [[DVec3; 3]; 2]| triangle_min_angle_cos(t[0]).max(triangle_min_angle_cos(t[1]));
-            if worst(new) >= worst(old) - 1e-12 || !geometry_ok(old, new) {
-                continue;
-            }
+            };
             st.mesh.flip_edge(e);
             flipped += 1;
+            let m = &st.mesh;
+            let h = e.halfedge(0);
+            for g in [h, h.twin()] {
+                let mut k = g;
+                for _ in 0..3 {
+                    for f in [m.face(k), m.face(k.twin())] {
+                        if !f.is_valid() {
+                            continue;
+                        }
+                        let j = f.0;
+                        if j > fi {
+                            if !in_heap[j as usize] {
+                                in_heap[j as usize] = true;
+                                heap.push(Reverse(j));
+                            }
+                        } else if !in_next[j as usize] {
+                            in_next[j as usize] = true;
+                            next.push(j);
+                        }
+                    }
+                    k = m.next(k);
+                }
+            }
         }
         count += flipped;
         if flipped == 0 {
             break;
         }
+        next.sort_unstable();
+        work = next;
     }
     Ok(count)
+}
+
+/// The edge to flip for face `f` in the sliver repair: its longest edge,
+/// when `f` is below 30°, the edge may flip and the flip raises the pair's
+/// smallest angle under the flip guards.
+fn sliver_flip(st: &State, f: FaceId) -> Option<EdgeId> {
+    let m = &st.mesh;
+    if m.is_face_deleted(f) {
+        return None;
+    }
+    let h0 = m.face_halfedge(f);
+    let h1 = m.next(h0);
+    let h2 = m.next(h1);
+    let t = m.face_vertices(f).map(|v| m.position(v));
+    if triangle_min_angle_cos(t) <= REPAIR_COS {
+        return None;
+    }
+    // The edge opposite the largest angle, which is the longest edge:
+    // corner 0 faces h1, 1 faces h2, 2 faces h0.
+    let len = [
+        t[1].distance_squared(t[2]),
+        t[2].distance_squared(t[0]),
+        t[0].distance_squared(t[1]),
+    ];
+    let k = (0..3).fold(0, |k, i| if len[i] > len[k] { i } else { k });
+    let h = [h1, h2, h0][k];
+    let e = h.edge();
+    if st.line_of(e).is_some() || m.is_boundary_edge(e) || !m.can_flip(e) {
+        return None;
+    }
+    let (old, new) = quad_triangles(m, quad(m, h));
+    // Cosine of the pair's smallest angle: lower is better.
+    let worst = |t: [[DVec3; 3]; 2]| triangle_min_angle_cos(t[0]).max(triangle_min_angle_cos(t[1]));
+    if worst(new) >= worst(old) - 1e-12 || !geometry_ok(old, new) {
+        return None;
+    }
+    Some(e)
 }
 
 /// The quad around the edge of `h`: its ends `a` (tail) and `b` (head),

@@ -8,6 +8,8 @@
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
+use rayon::prelude::*;
+
 use super::state::{State, SPLIT_FACTOR};
 use super::RemeshError;
 use crate::mesh::{EdgeId, Handle};
@@ -26,14 +28,25 @@ pub(super) fn split_long_edges(
 ) -> Result<u64, RemeshError> {
     // Max-heap on the excess ratio (positive floats order like their bits);
     // ties go to the lower edge index, so the order is deterministic.
-    let mut heap: BinaryHeap<(u64, Reverse<u32>)> = st
-        .mesh
-        .edges()
-        .filter_map(|e| {
-            let r = excess(st, e);
-            (r > 1.0).then_some((r.to_bits(), Reverse(e.0)))
+    // The long edges are found in parallel; the heap is built in O(n).
+    let long: Vec<(u64, Reverse<u32>)> = {
+        let st_ref: &State = st;
+        let m = &st.mesh;
+        st.pool.install(|| {
+            (0..m.edge_capacity() as u32)
+                .into_par_iter()
+                .filter_map(|i| {
+                    let e = EdgeId(i);
+                    if m.is_edge_deleted(e) {
+                        return None;
+                    }
+                    let r = excess(st_ref, e);
+                    (r > 1.0).then_some((r.to_bits(), Reverse(i)))
+                })
+                .collect()
         })
-        .collect();
+    };
+    let mut heap = BinaryHeap::from(long);
     let mut count = 0u64;
     while let Some((key, Reverse(i))) = heap.pop() {
         let e = EdgeId(i);

@@ -496,6 +496,12 @@ impl Probe {
     /// The score with `v` at `p`, or `None` when a ring face degenerates,
     /// turns by 60° or more, or faces away from `up`.
     fn score(&self, st: &State, p: DVec3, up: Option<DVec3>) -> Option<f64> {
+        self.score_above(st, p, up, f64::NEG_INFINITY)
+    }
+
+    /// [`Probe::score`], or `None` as soon as one ring face scores `floor`
+    /// or less (the move cannot beat a score of `floor`).
+    fn score_above(&self, st: &State, p: DVec3, up: Option<DVec3>, floor: f64) -> Option<f64> {
         let m = &st.mesh;
         let mut worst = f64::INFINITY;
         for (&(a, b), &n0) in self.ring.iter().zip(&self.normals) {
@@ -510,17 +516,22 @@ impl Probe {
                 return None;
             }
             worst = worst.min(-triangle_min_angle_cos(t));
+            if worst <= floor {
+                return None;
+            }
         }
         Some(worst)
     }
 
-    /// The score at `p` when it beats the current one and at most
-    /// [`SHAPE_BAND_SLACK`] more edges leave the band.
-    fn gain(&self, st: &State, p: DVec3, up: Option<DVec3>) -> Option<f64> {
+    /// The score at `p` when it beats the current one and `beat` (the best
+    /// candidate so far) and at most [`SHAPE_BAND_SLACK`] more edges leave
+    /// the band.
+    fn gain(&self, st: &State, p: DVec3, up: Option<DVec3>, beat: Option<f64>) -> Option<f64> {
         if out_of_band(st, self.v, p) > self.out_of_band + SHAPE_BAND_SLACK {
             return None;
         }
-        self.score(st, p, up).filter(|&s| s > self.current + 1e-9)
+        let floor = self.current + 1e-9;
+        self.score_above(st, p, up, beat.map_or(floor, |b| b.max(floor)))
     }
 }
 
@@ -571,10 +582,8 @@ fn improve_vertex(st: &mut State, v: VertexId) -> bool {
             // Scored where it is, off the surface by a fraction of the
             // chord sag; only the winner pays for a projection.
             let q = p + t * (apex - p);
-            if let Some(score) = probe.gain(st, q, Some(up)) {
-                if best.is_none_or(|(s, _)| score > s) {
-                    best = Some((score, q));
-                }
+            if let Some(score) = probe.gain(st, q, Some(up), best.map(|b| b.0)) {
+                best = Some((score, q));
             }
         }
     }
@@ -585,7 +594,7 @@ fn improve_vertex(st: &mut State, v: VertexId) -> bool {
         return false;
     };
     let up = st.input_normals[cp.face as usize];
-    if probe.gain(st, cp.point, Some(up)).is_none() {
+    if probe.gain(st, cp.point, Some(up), None).is_none() {
         return false;
     }
     st.mesh.set_position(v, cp.point);
@@ -619,10 +628,8 @@ fn improve_line_vertex(st: &mut State, v: VertexId, line: u32) -> bool {
             let lp = st
                 .features
                 .closest_on_line_near(line, p + t * (n - p), hint);
-            if let Some(score) = probe.gain(st, lp.point, None) {
-                if best.is_none_or(|(s, _, _)| score > s) {
-                    best = Some((score, lp.point, lp.segment));
-                }
+            if let Some(score) = probe.gain(st, lp.point, None, best.map(|b| b.0)) {
+                best = Some((score, lp.point, lp.segment));
             }
         }
     }

@@ -95,17 +95,17 @@ fn relax_targets(st: &State) -> Vec<DVec3> {
                         let mut wsum = 0.0;
                         let mut normal = DVec3::ZERO;
                         for h in m.outgoing(v) {
-                            let f = m.face(h);
-                            if !f.is_valid() {
+                            if !m.face(h).is_valid() {
                                 continue;
                             }
-                            let tri = m.face_positions(f);
+                            // The face (v, a, b) read off the ring.
+                            let (a, b) = (m.to_vertex(h), m.to_vertex(m.next(h)));
+                            let tri = [p, m.position(a), m.position(b)];
                             let cross = triangle_cross(tri);
                             normal += cross;
                             let mut w = cross.length();
                             if adaptive {
-                                let [a, b, c] = m.face_vertices(f);
-                                let hf = (size[a.idx()] + size[b.idx()] + size[c.idx()]) / 3.0;
+                                let hf = (size[i as usize] + size[a.idx()] + size[b.idx()]) / 3.0;
                                 w /= hf * hf;
                             }
                             sum += w * (tri[0] + tri[1] + tri[2]) / 3.0;

@@ -217,7 +217,7 @@ fn regularity(st: &State, v: VertexId) -> Regularity {
 fn valence_collapse_gain(
     st: &State,
     e: EdgeId,
-    reg: &dyn Fn(VertexId) -> Regularity,
+    reg: impl Fn(VertexId) -> Regularity,
 ) -> Option<i32> {
     let m = &st.mesh;
     if m.is_edge_deleted(e) || m.is_boundary_edge(e) {

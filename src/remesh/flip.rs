@@ -18,7 +18,7 @@ use rayon::prelude::*;
 
 use super::state::State;
 use super::RemeshError;
-use crate::geometry::{triangle_angles, triangle_cross, triangle_min_angle_cos, triangle_quality};
+use crate::geometry::{triangle_cross, triangle_min_angle_cos, triangle_quality};
 use crate::mesh::{EdgeId, FaceId, HalfedgeId, Handle, Mesh, VertexId};
 
 /// Largest dihedral angle between the two faces of a flippable edge (20°), as a cosine.
@@ -302,10 +302,24 @@ fn deviation_change(valence: &[i32], target: &[i32], quad: [VertexId; 4]) -> (i3
 
 /// Whether the edge shared by `old` violates the Delaunay condition: the
 /// angles opposite it sum to more than π.
+///
+/// With α, β in (0, π), α + β > π exactly when sin(α + β) < 0, and
+/// sin(α + β)·|u₁||v₁||u₂||v₂| = (u₁·v₁)|u₂×v₂| + (u₂·v₂)|u₁×v₁| for the edge
+/// vectors u, v at the opposite corners: no `acos`. The margin of 1e-9 keeps
+/// co-circular quads (α + β = π, as in every rectangle of a CAD grid) as
+/// they are.
 fn improves_delaunay(old: [[DVec3; 3]; 2]) -> bool {
-    let alpha = triangle_angles(old[0])[2];
-    let beta = triangle_angles(old[1])[2];
-    alpha + beta > std::f64::consts::PI + 1e-9
+    let corner = |t: [DVec3; 3]| {
+        let (u, v) = (t[0] - t[2], t[1] - t[2]);
+        (
+            u.dot(v),
+            u.cross(v).length(),
+            u.length_squared() * v.length_squared(),
+        )
+    };
+    let (d1, c1, l1) = corner(old[0]);
+    let (d2, c2, l2) = corner(old[1]);
+    d1 * c2 + d2 * c1 < -1e-9 * (l1 * l2).sqrt()
 }
 
 fn geometry_ok(old: [[DVec3; 3]; 2], new: [[DVec3; 3]; 2]) -> bool {
@@ -328,4 +342,48 @@ fn geometry_ok(old: [[DVec3; 3]; 2], new: [[DVec3; 3]; 2]) -> bool {
     let q_old = triangle_quality(old[0]).min(triangle_quality(old[1]));
     let q_new = triangle_quality(new[0]).min(triangle_quality(new[1]));
     q_new >= q_old.min(MIN_QUALITY)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::triangle_angles;
+
+    /// The acos-free test agrees with summing the two opposite angles, and
+    /// leaves co-circular quads alone.
+    #[test]
+    fn delaunay_test_matches_the_angle_sum() {
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let (a, b) = (DVec3::new(-1.0, 0.0, 0.0), DVec3::new(1.0, 0.0, 0.0));
+        for _ in 0..10_000 {
+            let c = DVec3::new(next(), 0.05 + next().abs(), 0.3 * next());
+            let d = DVec3::new(next(), -0.05 - next().abs(), 0.3 * next());
+            let old = [[a, b, c], [b, a, d]];
+            let sum = triangle_angles(old[0])[2] + triangle_angles(old[1])[2];
+            let pi = std::f64::consts::PI;
+            if (sum - pi).abs() > 1e-6 {
+                assert_eq!(improves_delaunay(old), sum > pi, "{c} {d}");
+            }
+        }
+        // A rectangle split along its diagonal: α + β = π exactly.
+        let rect = [
+            [
+                DVec3::ZERO,
+                DVec3::new(2.0, 1.0, 0.0),
+                DVec3::new(0.0, 1.0, 0.0),
+            ],
+            [
+                DVec3::new(2.0, 1.0, 0.0),
+                DVec3::ZERO,
+                DVec3::new(2.0, 0.0, 0.0),
+            ],
+        ];
+        assert!(!improves_delaunay(rect));
+    }
 }

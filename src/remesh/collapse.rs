@@ -266,7 +266,7 @@ pub(super) fn collapse_for_valence(
             (0..st_ref.mesh.edge_capacity() as u32)
                 .into_par_iter()
                 .filter(|&i| {
-                    valence_collapse_gain(st_ref, EdgeId(i), &lookup).is_some_and(|g| g > 0)
+                    valence_collapse_gain(st_ref, EdgeId(i), lookup).is_some_and(|g| g > 0)
                 })
                 .collect()
         })
@@ -280,7 +280,7 @@ pub(super) fn collapse_for_valence(
         // Earlier collapses change valences nearby: check again.
         let e = EdgeId(i);
         let live = |v: VertexId| regularity(st, v);
-        if valence_collapse_gain(st, e, &live).is_none_or(|g| g <= 0) {
+        if valence_collapse_gain(st, e, live).is_none_or(|g| g <= 0) {
             continue;
         }
         let h = e.halfedge(0);

@@ -5,9 +5,14 @@
 //! onto a feature vertex; an edge joining two feature vertices that is not
 //! itself a feature is never collapsed), the topological guard
 //! ([`crate::mesh::Mesh::can_collapse`]: link condition, boundary rules), the
-//! length guard (no resulting edge longer than 4/3 of its target), and the
+//! length guard (no resulting edge longer than 4/3 of its target), the
 //! shape guard (no face of the one-ring flips, degenerates or becomes a
-//! needle). Both directions are tried and the one leaving the better worst
+//! needle) and the deviation guard (the new one-ring passes within
+//! [`DEVIATION_FACTOR`] times the target of where the removed vertex, and a
+//! moved kept vertex, were: vertices lie on the input, so a collapse that
+//! leaves one farther cuts the input there, as across the crest of a rounded
+//! ridge that [`super::split::split_deviating_edges`] put a vertex on;
+//! uniform sizing only). Both directions are tried and the one leaving the better worst
 //! triangle wins.
 //!
 //! A second, valence-driven sweep ([`collapse_for_valence`]) runs after the
@@ -23,8 +28,10 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::split::DEVIATION_FACTOR;
 use super::state::{State, COLLAPSE_FACTOR, CORNER, SMOOTH, SPLIT_FACTOR};
 use super::RemeshError;
+use crate::bvh::closest_point_on_triangle;
 use crate::geometry::{triangle_cross, triangle_quality};
 use crate::mesh::{EdgeId, HalfedgeId, Handle, VertexId};
 
@@ -155,6 +162,19 @@ fn collapse_quality(st: &State, h: HalfedgeId, p: DVec3, stretch: f64) -> Option
     let removed = [m.face(h), m.face(h.twin())];
     let mut worst = f64::INFINITY;
     let size_after = st.size[v1.idx()].min(st.size[v0.idx()]);
+    // How close the new fan comes to the old positions of the removed vertex
+    // and (when it moves) the kept one; see the deviation guard in the module docs.
+    let (p0, p1) = (m.position(v0), m.position(v1));
+    // Uniform sizing only, like the deviation split.
+    let guard = st.uniform.is_some();
+    let mut near = [
+        if guard { f64::INFINITY } else { 0.0 },
+        if guard && moved_v1 {
+            f64::INFINITY
+        } else {
+            0.0
+        },
+    ];
     for (v, other) in [(v0, v1), (v1, v0)] {
         if v == v1 && !moved_v1 {
             continue;
@@ -188,7 +208,17 @@ fn collapse_quality(st: &State, h: HalfedgeId, p: DVec3, stretch: f64) -> Option
                 return None;
             }
             worst = worst.min(q_new);
+            for (d, q) in near.iter_mut().zip([p0, p1]) {
+                if *d > 0.0 {
+                    let (c, _) = closest_point_on_triangle(q, new[0], new[1], new[2]);
+                    *d = d.min(c.distance_squared(q));
+                }
+            }
         }
+    }
+    let tol = DEVIATION_FACTOR * 0.5 * (st.size[v0.idx()] + st.size[v1.idx()]);
+    if near.iter().any(|&d| d.is_finite() && d > tol * tol) {
+        return None;
     }
     Some(worst)
 }

@@ -2,8 +2,9 @@
 //! approach to multiresolution modeling" (SGP 2004), with the guards and
 //! feature handling of Dunyach et al. 2013 and CGAL's implementation notes.
 //!
-//! [`remesh`] runs, for each iteration: split long edges, collapse short
-//! edges, flip toward valence 6 (4 on the boundary), collapse the irregular
+//! [`remesh`] runs, for each iteration: split long edges and the edges whose
+//! midpoint lies far off the input (a chord across a rounded ridge), collapse
+//! short edges, flip toward valence 6 (4 on the boundary), collapse the irregular
 //! vertex pairs flips cannot fix and flip again, tangential relaxation, and
 //! projection onto the input surface or its feature lines; after the last
 //! iteration a sliver repair flips the longest edge of triangles still below
@@ -279,6 +280,7 @@ fn run(
             notify(observer, it, Pass::Split)?;
             let t = Instant::now();
             ir.splits = split::split_long_edges(&mut st, &|| observer.is_cancelled())?;
+            ir.splits += split::split_deviating_edges(&mut st, &|| observer.is_cancelled())?;
             report.seconds.split += t.elapsed().as_secs_f64();
         }
         if options.collapse {

@@ -4,7 +4,12 @@
 //! refines without the explosion of new long spokes that index order causes.
 //! A feature edge's new vertex is placed on the input's feature line, so
 //! creases and boundaries are resampled without drifting.
+//!
+//! A second sweep ([`split_deviating_edges`]) splits the in-band edges that
+//! cut the input: those whose midpoint lies farther than
+//! [`DEVIATION_FACTOR`] times their target from the surface.
 
+use glam::DVec3;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
@@ -12,6 +17,7 @@ use rayon::prelude::*;
 
 use super::state::{State, SPLIT_FACTOR};
 use super::RemeshError;
+use crate::geometry::triangle_cross;
 use crate::mesh::{EdgeId, Handle};
 
 /// How much longer than its split limit edge `e` is (> 1 means split it).
@@ -97,4 +103,103 @@ pub(super) fn split_long_edges(
         }
     }
     Ok(count)
+}
+
+/// An edge whose midpoint lies farther than this fraction of its target
+/// from the input is split at its closest input point (see
+/// [`split_deviating_edges`]); the collapse pass keeps a vertex whose
+/// removal would leave its position this far from the surface.
+pub(super) const DEVIATION_FACTOR: f64 = 0.25;
+
+/// Cosine of the angle (30°) between the input normals under an edge's end
+/// points below which [`split_deviating_edges`] measures the edge. A chord
+/// of length ℓ between two points whose normals differ by θ passes at most
+/// `(ℓ/2)·tan(θ/2)` from the surface, 0.18·ℓ at 30°: below
+/// [`DEVIATION_FACTOR`] for every edge the split pass leaves.
+const DEVIATION_NORMAL_COS: f64 = 0.866_025_403_784_438_6;
+
+/// Splits every non-feature edge whose midpoint lies farther than
+/// [`DEVIATION_FACTOR`] times its target from the input, at the input point
+/// closest to the midpoint; returns the number of splits.
+///
+/// Where the input turns by 90° or more within one target length without a
+/// feature edge (a rounded ridge of a coarse model, its normal turning over
+/// several creases of 10–35°), uniform sampling leaves edges whose two ends
+/// lie on the two flanks, and the ridge's crest is then over half a target
+/// length from the output. Nothing in the length rules sees this: the edges
+/// are in the band. The new vertex sits on the crest, and the collapse
+/// pass's deviation guard keeps it there.
+///
+/// Uniform sizing only (with or without `refine_curved`): adaptive sizing
+/// derives its lengths from a distance tolerance of its own, against which
+/// a fraction of the local target means nothing.
+pub(super) fn split_deviating_edges(
+    st: &mut State,
+    cancelled: &dyn Fn() -> bool,
+) -> Result<u64, RemeshError> {
+    use rayon::prelude::*;
+    if st.uniform.is_none() {
+        return Ok(0);
+    }
+    let candidates: Vec<(u32, [u32; 2], DVec3, u32)> = {
+        let st_ref: &State = st;
+        let m = &st.mesh;
+        st.pool.install(|| {
+            (0..m.edge_capacity() as u32)
+                .into_par_iter()
+                .filter_map(|i| {
+                    let e = EdgeId(i);
+                    if m.is_edge_deleted(e) || m.is_boundary_edge(e) || st_ref.line_of(e).is_some()
+                    {
+                        return None;
+                    }
+                    let [a, b] = m.edge_vertices(e);
+                    let (na, nb) = (
+                        st_ref.input_normals[st_ref.hint_face[a.idx()] as usize],
+                        st_ref.input_normals[st_ref.hint_face[b.idx()] as usize],
+                    );
+                    if na.dot(nb) >= DEVIATION_NORMAL_COS {
+                        return None;
+                    }
+                    let mid = 0.5 * (m.position(a) + m.position(b));
+                    let tol = DEVIATION_FACTOR * st_ref.edge_target(a, b);
+                    let cp = st_ref
+                        .index
+                        .closest_point_with_hint(mid, st_ref.hint_face[a.idx()])?;
+                    (cp.distance_squared > tol * tol).then_some((i, [a.0, b.0], cp.point, cp.face))
+                })
+                .collect()
+        })
+    };
+    let mut count = 0u64;
+    for (k, &(i, ends, p, face)) in candidates.iter().enumerate() {
+        if k % 4096 == 0 && cancelled() {
+            return Err(RemeshError::Cancelled);
+        }
+        let e = EdgeId(i);
+        if st.mesh.is_edge_deleted(e) {
+            continue;
+        }
+        let [a, b] = st.mesh.edge_vertices(e);
+        if [a.0, b.0] != ends || !split_keeps_orientation(st, e, p) {
+            continue;
+        }
+        let s = st.split(e, p, 0);
+        st.hint_face[s.vertex.idx()] = face;
+        count += 1;
+    }
+    Ok(count)
+}
+
+/// Whether splitting interior edge `e` with the new vertex at `p` leaves
+/// each of the four new faces turned by less than 90° from the face it
+/// replaces part of.
+fn split_keeps_orientation(st: &State, e: EdgeId, p: DVec3) -> bool {
+    let m = &st.mesh;
+    [e.halfedge(0), e.halfedge(1)].into_iter().all(|h| {
+        let (a, b) = (m.position(m.from_vertex(h)), m.position(m.to_vertex(h)));
+        let c = m.position(m.to_vertex(m.next(h)));
+        let n = triangle_cross([a, b, c]);
+        n.dot(triangle_cross([a, p, c])) > 0.0 && n.dot(triangle_cross([p, b, c])) > 0.0
+    })
 }

@@ -1,17 +1,12 @@
 //! The `isoremesh` binary end to end: `stats` and `remesh` on real files,
 //! and one clear line with a non-zero exit for every kind of bad input.
 
-use std::path::{Path, PathBuf};
+mod data_support;
+
 use std::process::Command;
 
 fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_isoremesh"))
-}
-
-fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data")
-        .join(name)
 }
 
 /// Runs the binary and expects failure with one stderr line naming `file` and containing `needle`.
@@ -32,7 +27,11 @@ fn expect_failure(args: &[&str], file: &str, needle: &str) {
 #[test]
 fn stats_json_is_the_only_stdout_and_has_the_documented_fields() {
     let out = bin()
-        .args(["stats", data("spot.obj").to_str().unwrap(), "--json"])
+        .args([
+            "stats",
+            data_support::path("spot.obj").to_str().unwrap(),
+            "--json",
+        ])
         .output()
         .unwrap();
     assert!(out.status.success());
@@ -59,7 +58,7 @@ fn stats_json_is_the_only_stdout_and_has_the_documented_fields() {
 
 #[test]
 fn stats_with_a_reference_reports_distances() {
-    let spot = data("spot.obj");
+    let spot = data_support::path("spot.obj");
     let out = bin()
         .args([
             "stats",
@@ -84,7 +83,7 @@ fn remesh_writes_the_output_format_of_its_extension_and_stats() {
         let st = bin()
             .args([
                 "remesh",
-                data("cube.obj").to_str().unwrap(),
+                data_support::path("cube.obj").to_str().unwrap(),
                 out_path.to_str().unwrap(),
                 "--target-edge-ratio",
                 "0.1",
@@ -131,7 +130,7 @@ fn every_bad_input_gives_one_line_and_a_non_zero_exit() {
     );
     let unknown = write("mesh.xyz", b"\x00\x01\x02 not a mesh at all");
     expect_failure(&["stats", &unknown], "mesh.xyz", "unknown");
-    let duck = std::fs::read(data("gltf/Duck.glb")).unwrap();
+    let duck = std::fs::read(data_support::path("gltf/Duck.glb")).unwrap();
     let truncated = write("truncated.glb", &duck[..duck.len() / 2]);
     expect_failure(&["stats", &truncated], "truncated.glb", "");
     let bad_index = write("bad_index.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n");
@@ -146,7 +145,7 @@ fn every_bad_input_gives_one_line_and_a_non_zero_exit() {
     expect_failure(
         &[
             "remesh",
-            data("cube.obj").to_str().unwrap(),
+            data_support::path("cube.obj").to_str().unwrap(),
             bad_ext.to_str().unwrap(),
         ],
         "out.xyz",

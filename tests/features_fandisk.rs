@@ -1,37 +1,14 @@
 //! Features of fandisk (a CAD part with creases and corners), checked against
 //! the bench's count and an independent brute-force recount.
 
-use glam::DVec3;
+mod data_support;
+
 use isoremesh::features::{
     detect_features, mesh_edges, polyline_distance, sharp_edge_distance, sharp_edges, EdgeFlags,
     FeatureOptions, VertexKind,
 };
 use isoremesh::TriMesh;
 use std::collections::HashMap;
-
-/// fandisk.obj has only `v x y z` and `f a b c` lines (1-based indices).
-fn load_fandisk() -> TriMesh {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/fandisk.obj");
-    let text = std::fs::read_to_string(path).expect("tests/data/fandisk.obj");
-    let mut positions = Vec::new();
-    let mut triangles = Vec::new();
-    for line in text.lines() {
-        let mut w = line.split_whitespace();
-        match w.next() {
-            Some("v") => {
-                let c: Vec<f64> = w.map(|x| x.parse().unwrap()).collect();
-                positions.push(DVec3::new(c[0], c[1], c[2]));
-            }
-            Some("f") => {
-                let c: Vec<u32> = w.map(|x| x.parse::<u32>().unwrap() - 1).collect();
-                assert_eq!(c.len(), 3);
-                triangles.push([c[0], c[1], c[2]]);
-            }
-            _ => {}
-        }
-    }
-    TriMesh::new(positions, triangles)
-}
 
 /// Dihedral-angle count by a plain hash map over edges, independent of the
 /// library's edge table.
@@ -67,7 +44,7 @@ fn brute_sharp(m: &TriMesh, angle_deg: f64) -> Vec<[u32; 2]> {
 
 #[test]
 fn fandisk_has_the_benchs_706_sharp_edges_at_45_degrees() {
-    let m = load_fandisk();
+    let m = data_support::plain_obj("fandisk.obj");
     assert_eq!((m.positions.len(), m.triangles.len()), (6475, 12946));
     let fs = detect_features(&m, &FeatureOptions::default());
     // bench/quality.py (and /work/shared/meshes/README.md) count 706.
@@ -101,7 +78,7 @@ fn fandisk_has_the_benchs_706_sharp_edges_at_45_degrees() {
 
 #[test]
 fn fandisk_corners_are_the_junctions_ends_and_sharp_turns() {
-    let m = load_fandisk();
+    let m = data_support::plain_obj("fandisk.obj");
     let opts = FeatureOptions::default();
     let fs = detect_features(&m, &opts);
     // Recount corners from the edge list alone.
@@ -161,7 +138,7 @@ fn fandisk_corners_are_the_junctions_ends_and_sharp_turns() {
 
 #[test]
 fn fandisk_sharp_edges_lie_on_its_own_edges() {
-    let m = load_fandisk();
+    let m = data_support::plain_obj("fandisk.obj");
     let l = 0.01 * m.bbox_diagonal();
     let d = sharp_edge_distance(&m, &m, 45.0, l / 4.0).unwrap();
     assert!(d.max < 1e-12, "{d:?}");

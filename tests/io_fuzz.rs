@@ -3,16 +3,9 @@
 //! one caught and reported as `IoError::Panic`). Successful reads must
 //! satisfy the mesh invariants.
 
-use std::path::PathBuf;
+mod data_support;
 
 use isoremesh::io::{self, Format, IoError, ReadOptions};
-
-fn data(name: &str) -> Vec<u8> {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data")
-        .join(name);
-    std::fs::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
-}
 
 /// xorshift64*: a fixed seed gives the same cases on every run.
 struct Rng(u64);
@@ -54,7 +47,7 @@ fn check(name: &str, case: &str, bytes: &[u8], format: Format, tally: &mut [u32;
 }
 
 fn fuzz(name: &str, format: Format, rounds: usize, seed: u64) {
-    let original = data(name);
+    let original = data_support::bytes(name);
     let mut rng = Rng(seed);
     let mut tally = [0u32; 2];
     for round in 0..rounds {

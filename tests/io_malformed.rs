@@ -2,17 +2,10 @@
 //! one-line message, never a panic. The hostile glTFs are small valid files
 //! from tests/data with their JSON or buffer edited here.
 
-use std::path::PathBuf;
+mod data_support;
 
 use base64::Engine;
 use isoremesh::io::{self, Format, IoError, ReadOptions};
-
-fn data(name: &str) -> Vec<u8> {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data")
-        .join(name);
-    std::fs::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
-}
 
 fn read(bytes: &[u8], format: Format) -> Result<io::Imported, IoError> {
     let r = io::read(bytes, format, &ReadOptions::default());
@@ -29,7 +22,10 @@ fn read(bytes: &[u8], format: Format) -> Result<io::Imported, IoError> {
 
 /// BoxTexturedEmbedded as JSON, for editing.
 fn box_json() -> serde_json::Value {
-    serde_json::from_slice(&data("gltf/BoxTexturedEmbedded/BoxTextured.gltf")).unwrap()
+    serde_json::from_slice(&data_support::bytes(
+        "gltf/BoxTexturedEmbedded/BoxTextured.gltf",
+    ))
+    .unwrap()
 }
 
 fn box_read(doc: &serde_json::Value) -> Result<io::Imported, IoError> {
@@ -55,7 +51,7 @@ fn box_json_is_valid_before_editing() {
 
 #[test]
 fn glb_container_errors() {
-    let duck = data("gltf/Duck.glb");
+    let duck = data_support::bytes("gltf/Duck.glb");
     // Truncated body: the header declares more bytes than present.
     match read(&duck[..duck.len() / 2], Format::Glb) {
         Err(IoError::Truncated {
@@ -409,7 +405,7 @@ fn non_finite_coordinates() {
         read(ascii.as_bytes(), Format::Stl),
         Err(IoError::NonFinite { .. })
     ));
-    let mut stl = data("spot_binary.stl");
+    let mut stl = data_support::bytes("spot_binary.stl");
     let at = 84 + 50 * 7 + 12 + 4; // triangle 7, vertex 0, y
     stl[at..at + 4].copy_from_slice(&f32::INFINITY.to_le_bytes());
     assert!(matches!(
@@ -462,13 +458,13 @@ fn lying_counts_and_truncation_in_text_and_binary_formats() {
         Err(IoError::Truncated { .. })
     ));
     // Binary PLY cut short.
-    let p = data("cube_quads_double_le.ply");
+    let p = data_support::bytes("cube_quads_double_le.ply");
     assert!(matches!(
         read(&p[..p.len() - 5], Format::Ply),
         Err(IoError::Parse { .. })
     ));
     // Binary STL with more triangles declared than present.
-    let s = data("spot_binary.stl");
+    let s = data_support::bytes("spot_binary.stl");
     assert!(matches!(
         read(&s[..s.len() - 10], Format::Stl),
         Err(IoError::Truncated { .. })

@@ -1,25 +1,16 @@
 //! Reading real files (tests/data, see its README for sources) and writing
 //! then reading back every format.
 
+mod data_support;
+
 use std::collections::HashMap;
-use std::path::PathBuf;
 
 use glam::DVec3;
 use isoremesh::io::{self, Format, Imported, ReadOptions, WriteOptions};
 use isoremesh::{Label, Material, TriMesh};
 
-fn data_path(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data")
-        .join(name)
-}
-
-fn data(name: &str) -> Vec<u8> {
-    std::fs::read(data_path(name)).unwrap_or_else(|e| panic!("{name}: {e}"))
-}
-
 fn load(name: &str) -> Imported {
-    let bytes = data(name);
+    let bytes = data_support::bytes(name);
     let format = Format::detect(Some(name), &bytes, None).unwrap();
     io::read(&bytes, format, &ReadOptions::default()).unwrap_or_else(|e| panic!("{name}: {e}"))
 }
@@ -347,7 +338,9 @@ fn crlf_line_endings_are_read() {
         ("cube_ascii.stl", Format::Stl, 12),
         ("fertility.off", Format::Off, 9000),
     ] {
-        let text = String::from_utf8(data(name)).unwrap().replace('\n', "\r\n");
+        let text = String::from_utf8(data_support::bytes(name))
+            .unwrap()
+            .replace('\n', "\r\n");
         assert_eq!(Format::from_magic(text.as_bytes()), Some(format), "{name}");
         let r = io::read(text.as_bytes(), format, &ReadOptions::default()).unwrap();
         assert_eq!(r.mesh, load(name).mesh, "{name}");
@@ -372,7 +365,7 @@ fn glb_json(bytes: &[u8]) -> serde_json::Value {
 
 #[test]
 fn duck_node_transform_is_applied() {
-    let bytes = data("gltf/Duck.glb");
+    let bytes = data_support::bytes("gltf/Duck.glb");
     let json = glb_json(&bytes);
     // Node 0 scales by 0.01 and holds node 2 (the mesh, no transform) and a
     // camera; POSITION is accessor 2 with declared min/max.
@@ -449,7 +442,7 @@ fn box_normals_follow_the_rotated_node() {
 
 #[test]
 fn external_buffer_is_used_only_when_provided() {
-    let gltf = data("gltf/BoxTextured/BoxTextured.gltf");
+    let gltf = data_support::bytes("gltf/BoxTextured/BoxTextured.gltf");
     let err = io::read(&gltf, Format::Gltf, &ReadOptions::default()).unwrap_err();
     match &err {
         io::IoError::ExternalBuffer { uri } => assert_eq!(uri, "BoxTextured0.bin"),
@@ -459,7 +452,7 @@ fn external_buffer_is_used_only_when_provided() {
     let mut opts = ReadOptions::default();
     opts.external_buffers.insert(
         "BoxTextured0.bin".into(),
-        data("gltf/BoxTextured/BoxTextured0.bin"),
+        data_support::bytes("gltf/BoxTextured/BoxTextured0.bin"),
     );
     let external = io::read(&gltf, Format::Gltf, &opts).unwrap();
     let embedded = load("gltf/BoxTexturedEmbedded/BoxTextured.gltf");
@@ -541,7 +534,7 @@ fn gltf_strips_fans_points_lines_and_hierarchy() {
 
 #[test]
 fn gltf_mirroring_node_keeps_outward_winding() {
-    let text = data("gltf/BoxTexturedEmbedded/BoxTextured.gltf");
+    let text = data_support::bytes("gltf/BoxTexturedEmbedded/BoxTextured.gltf");
     let mut doc: serde_json::Value = serde_json::from_slice(&text).unwrap();
     doc["nodes"][0]["matrix"] = serde_json::json!([
         -1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0
@@ -670,12 +663,12 @@ fn format_detection() {
         ("cube_ascii.ply", Format::Ply),
     ];
     for (name, f) in by_content {
-        let bytes = data(name);
+        let bytes = data_support::bytes(name);
         assert_eq!(Format::from_magic(&bytes), Some(f), "{name}");
         assert_eq!(Format::detect(None, &bytes, None).unwrap(), f, "{name}");
     }
     // A binary STL whose header starts with "solid" is still binary.
-    let mut stl = data("spot_binary.stl");
+    let mut stl = data_support::bytes("spot_binary.stl");
     stl[..6].copy_from_slice(b"solid ");
     assert_eq!(Format::from_magic(&stl), Some(Format::Stl));
     let r = io::read(&stl, Format::Stl, &ReadOptions::default()).unwrap();
@@ -686,7 +679,7 @@ fn format_detection() {
     let r = io::read(&stl, Format::Stl, &ReadOptions::default()).unwrap();
     assert_eq!(r.mesh.face_count(), 5856);
     // Precedence: explicit > extension > content.
-    let obj = data("cube.obj");
+    let obj = data_support::bytes("cube.obj");
     assert_eq!(
         Format::detect(Some("a.stl"), &obj, None).unwrap(),
         Format::Stl

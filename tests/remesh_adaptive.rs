@@ -2,6 +2,8 @@
 //! output stays within 2ε of the input, edges follow the local target, and a
 //! torus gets shorter edges on its inner (more curved) side.
 
+mod data_support;
+
 use isoremesh::mesh::Mesh;
 use isoremesh::remesh::{remesh, NoObserver, RemeshOptions, Sizing};
 use isoremesh::shapes;
@@ -162,16 +164,7 @@ fn real_meshes_need_at_most_half_the_uniform_faces_at_no_larger_distance() {
     // bench's quality.py at 200k samples: spot 40 % of the faces at 1.46 vs
     // 1.73 ‰, fertility 36 % at 1.77 vs 1.99 ‰ of the diagonal.
     for name in ["spot.obj", "fertility.off"] {
-        let path = format!("{}/tests/data/{name}", env!("CARGO_MANIFEST_DIR"));
-        let bytes = std::fs::read(&path).unwrap();
-        let input = isoremesh::pipeline::load(
-            &bytes,
-            Some(name),
-            None,
-            &isoremesh::io::ReadOptions::default(),
-        )
-        .unwrap()
-        .mesh;
+        let input = data_support::mesh(name);
         let reference = input.to_trimesh();
         let diag = reference.bbox_diagonal();
         let measure = |o: &RemeshOptions| {

@@ -2,20 +2,13 @@
 //! boundaries are resampled on the input's lines, boundaries neither shrink
 //! nor freeze.
 
+mod data_support;
+
 use glam::DVec3;
 use isoremesh::features::{self, detect_features, FeatureOptions};
-use isoremesh::io::ReadOptions;
 use isoremesh::mesh::Mesh;
 use isoremesh::remesh::{remesh, NoObserver, RemeshOptions};
 use isoremesh::{shapes, TriMesh};
-
-fn load(name: &str) -> Mesh {
-    let path = format!("{}/tests/data/{name}", env!("CARGO_MANIFEST_DIR"));
-    let bytes = std::fs::read(&path).unwrap();
-    isoremesh::pipeline::load(&bytes, Some(name), None, &ReadOptions::default())
-        .unwrap()
-        .mesh
-}
 
 fn run(input: &Mesh, l: f64) -> TriMesh {
     let out = remesh(
@@ -46,7 +39,7 @@ fn assert_corners_kept(input: &TriMesh, output: &TriMesh) {
 
 #[test]
 fn cube_corners_and_edges_are_kept_exactly() {
-    let input = load("cube.obj");
+    let input = data_support::mesh("cube.obj");
     let tin = input.to_trimesh();
     let l = 0.0075 * tin.bbox_diagonal() * 4.0;
     let out = run(&input, l);
@@ -57,7 +50,7 @@ fn cube_corners_and_edges_are_kept_exactly() {
 
 #[test]
 fn fandisk_corners_stay_and_creases_stay_close() {
-    let input = load("fandisk.obj");
+    let input = data_support::mesh("fandisk.obj");
     let tin = input.to_trimesh();
     let l = 0.0075 * tin.bbox_diagonal();
     let out = run(&input, l);

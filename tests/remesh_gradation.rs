@@ -27,7 +27,8 @@
 //! On real meshes the check therefore skips vertices on or next to a
 //! feature or boundary edge and uses the output's measured slope γ.
 
-use isoremesh::io::ReadOptions;
+mod data_support;
+
 use isoremesh::mesh::{Handle, Mesh, VertexId, EDGE_FEATURE};
 use isoremesh::remesh::{remesh, NoObserver, RemeshOptions, RemeshOutput, Sizing};
 use isoremesh::shapes;
@@ -122,11 +123,7 @@ fn neighbouring_edges_on_an_unmarked_cube_stay_within_the_gradation_bound() {
 #[test]
 fn neighbouring_edges_on_real_meshes_stay_within_the_band_bound() {
     for name in ["spot.obj", "fertility.off"] {
-        let path = format!("{}/tests/data/{name}", env!("CARGO_MANIFEST_DIR"));
-        let bytes = std::fs::read(&path).unwrap();
-        let input = isoremesh::pipeline::load(&bytes, Some(name), None, &ReadOptions::default())
-            .unwrap()
-            .mesh;
+        let input = data_support::mesh(name);
         let g = isoremesh::remesh::DEFAULT_GRADATION;
         let out = remesh(&input, &adaptive(None, g, true), &mut NoObserver).unwrap();
         let m = &out.mesh;

@@ -3,22 +3,15 @@
 //! boundary-loop count, has no degenerate face and no face turned away from
 //! the input surface, and is identical whatever the thread count.
 
+mod data_support;
+
 use glam::DVec3;
 use isoremesh::bvh::SurfaceIndex;
 use isoremesh::geometry::{triangle_area, triangle_normal};
-use isoremesh::io::ReadOptions;
 use isoremesh::mesh::Mesh;
 use isoremesh::remesh::{remesh, NoObserver, Observer, Progress, RemeshError, RemeshOptions};
 use isoremesh::stats::{self, StatsOptions};
 use isoremesh::{shapes, TriMesh};
-
-fn load(name: &str) -> Mesh {
-    let path = format!("{}/tests/data/{name}", env!("CARGO_MANIFEST_DIR"));
-    let bytes = std::fs::read(&path).unwrap();
-    isoremesh::pipeline::load(&bytes, Some(name), None, &ReadOptions::default())
-        .unwrap()
-        .mesh
-}
 
 fn build(m: &TriMesh) -> Mesh {
     Mesh::from_trimesh(m).unwrap().0
@@ -94,7 +87,7 @@ fn generated_shapes_keep_every_invariant() {
 #[test]
 fn real_meshes_keep_every_invariant() {
     for name in ["spot.obj", "fandisk.obj", "fertility.off"] {
-        let input = load(name);
+        let input = data_support::mesh(name);
         let diag = input.to_trimesh().bbox_diagonal();
         check(
             &input,
@@ -107,7 +100,7 @@ fn real_meshes_keep_every_invariant() {
 #[test]
 fn uniform_remeshing_of_spot_meets_the_quality_goals() {
     // A regression test: the statistics of spot at the bench defaults, pinned to ranges.
-    let input = load("spot.obj");
+    let input = data_support::mesh("spot.obj");
     let inp = input.to_trimesh();
     let l = 0.0075 * inp.bbox_diagonal();
     let res = check(&input, &RemeshOptions::default().with_target_edge_length(l));
@@ -144,7 +137,7 @@ fn uniform_remeshing_of_spot_meets_the_quality_goals() {
 
 #[test]
 fn output_is_identical_whatever_the_thread_count() {
-    let input = load("fandisk.obj");
+    let input = data_support::mesh("fandisk.obj");
     let run = |threads| {
         let o = RemeshOptions::default()
             .with_target_edge_ratio(0.012)
@@ -262,7 +255,7 @@ fn fertility_keeps_every_angle_above_20_degrees() {
     // fertility's features force no small angle (its narrowest feature
     // sector is 59°), so the goal of 20° applies in full. Before the final
     // sliver repair one obtuse triangle beside a crease had 18.6°.
-    let input = load("fertility.off");
+    let input = data_support::mesh("fertility.off");
     let l = 0.0075 * input.to_trimesh().bbox_diagonal();
     let res = check(&input, &RemeshOptions::default().with_target_edge_length(l));
     let s = stats::compute(
@@ -287,7 +280,7 @@ fn the_final_shape_pass_leaves_fandisk_almost_no_triangle_below_30_degrees() {
     // triangles are below 30° (the best peer); ours were 0.08 % before the
     // final repair, 0.02 % after its flips alone (10 triangles), and about
     // 0.01 % with the vertex moves as well.
-    let input = load("fandisk.obj");
+    let input = data_support::mesh("fandisk.obj");
     let l = 0.0075 * input.to_trimesh().bbox_diagonal();
     let out = remesh(
         &input,

@@ -2,21 +2,14 @@
 //! follows tight curves more closely while edges stay in the length band, and
 //! switched off it gives one target everywhere.
 
-use isoremesh::io::ReadOptions;
+mod data_support;
+
 use isoremesh::remesh::{remesh, NoObserver, RemeshOptions};
 use isoremesh::stats::{self, StatsOptions};
 
-fn spot() -> isoremesh::mesh::Mesh {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/spot.obj");
-    let bytes = std::fs::read(path).unwrap();
-    isoremesh::pipeline::load(&bytes, Some("spot.obj"), None, &ReadOptions::default())
-        .unwrap()
-        .mesh
-}
-
 #[test]
 fn refinement_lowers_the_distance_and_keeps_the_band() {
-    let input = spot();
+    let input = data_support::mesh("spot.obj");
     let inp = input.to_trimesh();
     let l = 0.0075 * inp.bbox_diagonal();
     let run = |refine: bool| {

@@ -2,20 +2,12 @@
 //! `meshload.py` welding) and draw its distance samples: pinned against
 //! figures quality.py printed for the same inputs.
 
+mod data_support;
+
 use glam::DVec3;
-use isoremesh::io::ReadOptions;
-use isoremesh::pipeline;
 use isoremesh::shapes;
 use isoremesh::stats::{compute, StatsOptions};
 use isoremesh::TriMesh;
-
-fn spot() -> TriMesh {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/spot.obj");
-    let bytes = std::fs::read(path).expect("tests/data/spot.obj");
-    pipeline::load(&bytes, Some("spot.obj"), None, &ReadOptions::default())
-        .expect("spot loads")
-        .source
-}
 
 /// spot scaled by 1.01 about its bounding-box centre, computed as NumPy does
 /// `(V - c) * 1.01 + c`.
@@ -41,7 +33,7 @@ fn rel(a: f64, b: f64) -> f64 {
 /// ```
 #[test]
 fn distances_are_the_ones_quality_py_reports() {
-    let reference = spot();
+    let reference = data_support::load("spot.obj").source;
     let mesh = scaled(&reference);
     // (seed, hausdorff, mean, rms), all relative to the diagonal.
     let cases = [

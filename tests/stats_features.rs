@@ -2,23 +2,18 @@
 //! the input, the crease distance, kept corners, and whether the output's
 //! feature edges lie on the input's feature lines and cover them.
 
+mod data_support;
+
 use glam::DVec3;
 use isoremesh::features::FeatureOptions;
-use isoremesh::io::ReadOptions;
-use isoremesh::pipeline::{self, LoadedInput};
+use isoremesh::pipeline;
 use isoremesh::remesh::{remesh, NoObserver, RemeshOptions};
 use isoremesh::shapes;
 use isoremesh::stats::{self, FeatureFidelity, StatsOptions};
 
-fn load(name: &str) -> LoadedInput {
-    let path = format!("{}/tests/data/{name}", env!("CARGO_MANIFEST_DIR"));
-    let bytes = std::fs::read(&path).unwrap();
-    pipeline::load(&bytes, Some(name), None, &ReadOptions::default()).unwrap()
-}
-
 /// The job's output fidelity at the bench's default L (0.75% of the diagonal).
 fn job_fidelity(name: &str) -> (u64, FeatureFidelity) {
-    let input = load(name);
+    let input = data_support::load(name);
     let l = 0.0075 * input.mesh.to_trimesh().bbox_diagonal();
     let out = pipeline::run(
         &input,
@@ -82,7 +77,7 @@ fn cube_output_feature_edges_lie_on_the_input_lines() {
 
 #[test]
 fn a_remesh_without_features_is_measured_as_cutting_across_them() {
-    let input = load("fandisk.obj");
+    let input = data_support::load("fandisk.obj");
     let tin = input.mesh.to_trimesh();
     let l = 0.0075 * tin.bbox_diagonal();
     let out = remesh(

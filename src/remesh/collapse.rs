@@ -167,6 +167,8 @@ fn collapse_quality(st: &State, h: HalfedgeId, p: DVec3, stretch: f64) -> Option
     let (p0, p1) = (m.position(v0), m.position(v1));
     // Uniform sizing only, like the deviation split.
     let guard = st.uniform.is_some();
+    let tol = DEVIATION_FACTOR * 0.5 * (st.size[v0.idx()] + st.size[v1.idx()]);
+    let tol2 = tol * tol;
     let mut near = [
         if guard { f64::INFINITY } else { 0.0 },
         if guard && moved_v1 {
@@ -209,15 +211,15 @@ fn collapse_quality(st: &State, h: HalfedgeId, p: DVec3, stretch: f64) -> Option
             }
             worst = worst.min(q_new);
             for (d, q) in near.iter_mut().zip([p0, p1]) {
-                if *d > 0.0 {
+                // Once within the tolerance, a point needs no more faces.
+                if *d > tol2 {
                     let (c, _) = closest_point_on_triangle(q, new[0], new[1], new[2]);
                     *d = d.min(c.distance_squared(q));
                 }
             }
         }
     }
-    let tol = DEVIATION_FACTOR * 0.5 * (st.size[v0.idx()] + st.size[v1.idx()]);
-    if near.iter().any(|&d| d.is_finite() && d > tol * tol) {
+    if near.iter().any(|&d| d.is_finite() && d > tol2) {
         return None;
     }
     Some(worst)

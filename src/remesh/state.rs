@@ -517,3 +517,36 @@ fn check_estimate(area: f64, l: f64, limit: u64) -> Result<(), RemeshError> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every face's neighbour across edge `k` holds that edge reversed, and
+    /// only boundary edges of an open grid have none.
+    #[test]
+    fn face_neighbors_cross_the_named_edge() {
+        for (tm, open) in [
+            (crate::shapes::icosphere(2), false),
+            (crate::shapes::grid(1.0, 6), true),
+        ] {
+            let (start, faces) = vertex_face_csr(&tm);
+            let nb = face_neighbors(&tm, &start, &faces);
+            let mut missing = 0;
+            for (f, t) in tm.triangles.iter().enumerate() {
+                for k in 0..3 {
+                    let (a, b) = (t[k], t[(k + 1) % 3]);
+                    let g = nb[f][k];
+                    if g == u32::MAX {
+                        missing += 1;
+                        continue;
+                    }
+                    let u = tm.triangles[g as usize];
+                    assert_ne!(g as usize, f);
+                    assert!((0..3).any(|j| u[j] == b && u[(j + 1) % 3] == a));
+                }
+            }
+            assert_eq!(missing > 0, open);
+        }
+    }
+}

@@ -57,24 +57,11 @@ pub(super) fn collapse_short_edges(
     let mut count = 0u64;
     // Find the short edges in parallel (a pure scan), then collapse them in
     // index order, re-checking each one, so the result stays deterministic.
-    let candidates: Vec<u32> = {
-        let m = &st.mesh;
-        let st_ref: &State = st;
-        st.pool.install(|| {
-            (0..m.edge_capacity() as u32)
-                .into_par_iter()
-                .filter(|&i| {
-                    let e = EdgeId(i);
-                    if m.is_edge_deleted(e) {
-                        return false;
-                    }
-                    let [a, b] = m.edge_vertices(e);
-                    m.position(a).distance(m.position(b))
-                        < COLLAPSE_FACTOR * st_ref.edge_target(a, b)
-                })
-                .collect()
-        })
-    };
+    let candidates: Vec<u32> = st.par_edges(|e| {
+        let [a, b] = st.mesh.edge_vertices(e);
+        (st.mesh.position(a).distance(st.mesh.position(b)) < COLLAPSE_FACTOR * st.edge_target(a, b))
+            .then_some(e.0)
+    });
     for (k, &i) in candidates.iter().enumerate() {
         if k % 4096 == 0 && cancelled() {
             return Err(RemeshError::Cancelled);

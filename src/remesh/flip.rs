@@ -62,24 +62,14 @@ pub(super) fn flip_edges(
     // at the start; flips queue every edge whose valences they change.
     let mut work: Vec<u32> = match seed {
         Some(seed) => seed,
-        None => {
+        None => st.par_edges(|e| {
             let m = &st.mesh;
-            let (valence, target) = (&valence, &target);
-            st.pool.install(|| {
-                (0..m.edge_capacity() as u32)
-                    .into_par_iter()
-                    .filter(|&i| {
-                        let e = EdgeId(i);
-                        if m.is_edge_deleted(e) || m.is_boundary_edge(e) {
-                            return false;
-                        }
-                        let (before, after) =
-                            deviation_change(valence, target, quad(m, e.halfedge(0)));
-                        after <= before
-                    })
-                    .collect()
-            })
-        }
+            if m.is_boundary_edge(e) {
+                return None;
+            }
+            let (before, after) = deviation_change(&valence, &target, quad(m, e.halfedge(0)));
+            (after <= before).then_some(e.0)
+        }),
     };
     let mut queued = vec![false; st.mesh.edge_capacity()];
     for _ in 0..MAX_SWEEPS {

@@ -13,8 +13,6 @@ use glam::DVec3;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
-use rayon::prelude::*;
-
 use super::state::{State, SPLIT_FACTOR};
 use super::RemeshError;
 use crate::geometry::triangle_cross;
@@ -35,23 +33,10 @@ pub(super) fn split_long_edges(
     // Max-heap on the excess ratio (positive floats order like their bits);
     // ties go to the lower edge index, so the order is deterministic.
     // The long edges are found in parallel; the heap is built in O(n).
-    let long: Vec<(u64, Reverse<u32>)> = {
-        let st_ref: &State = st;
-        let m = &st.mesh;
-        st.pool.install(|| {
-            (0..m.edge_capacity() as u32)
-                .into_par_iter()
-                .filter_map(|i| {
-                    let e = EdgeId(i);
-                    if m.is_edge_deleted(e) {
-                        return None;
-                    }
-                    let r = excess(st_ref, e);
-                    (r > 1.0).then_some((r.to_bits(), Reverse(i)))
-                })
-                .collect()
-        })
-    };
+    let long = st.par_edges(|e| {
+        let r = excess(st, e);
+        (r > 1.0).then_some((r.to_bits(), Reverse(e.0)))
+    });
     let mut heap = BinaryHeap::from(long);
     let mut count = 0u64;
     while let Some((key, Reverse(i))) = heap.pop() {
@@ -137,40 +122,29 @@ pub(super) fn split_deviating_edges(
     st: &mut State,
     cancelled: &dyn Fn() -> bool,
 ) -> Result<u64, RemeshError> {
-    use rayon::prelude::*;
     if st.uniform.is_none() {
         return Ok(0);
     }
-    let candidates: Vec<(u32, [u32; 2], DVec3, u32)> = {
-        let st_ref: &State = st;
+    let candidates: Vec<(u32, [u32; 2], DVec3, u32)> = st.par_edges(|e| {
         let m = &st.mesh;
-        st.pool.install(|| {
-            (0..m.edge_capacity() as u32)
-                .into_par_iter()
-                .filter_map(|i| {
-                    let e = EdgeId(i);
-                    if m.is_edge_deleted(e) || m.is_boundary_edge(e) || st_ref.line_of(e).is_some()
-                    {
-                        return None;
-                    }
-                    let [a, b] = m.edge_vertices(e);
-                    let (na, nb) = (
-                        st_ref.input_normals[st_ref.hint_face[a.idx()] as usize],
-                        st_ref.input_normals[st_ref.hint_face[b.idx()] as usize],
-                    );
-                    if na.dot(nb) >= DEVIATION_NORMAL_COS {
-                        return None;
-                    }
-                    let mid = 0.5 * (m.position(a) + m.position(b));
-                    let tol = DEVIATION_FACTOR * st_ref.edge_target(a, b);
-                    let cp = st_ref
-                        .index
-                        .closest_point_with_hint(mid, st_ref.hint_face[a.idx()])?;
-                    (cp.distance_squared > tol * tol).then_some((i, [a.0, b.0], cp.point, cp.face))
-                })
-                .collect()
-        })
-    };
+        if m.is_boundary_edge(e) || st.line_of(e).is_some() {
+            return None;
+        }
+        let [a, b] = m.edge_vertices(e);
+        let (na, nb) = (
+            st.input_normals[st.hint_face[a.idx()] as usize],
+            st.input_normals[st.hint_face[b.idx()] as usize],
+        );
+        if na.dot(nb) >= DEVIATION_NORMAL_COS {
+            return None;
+        }
+        let mid = 0.5 * (m.position(a) + m.position(b));
+        let tol = DEVIATION_FACTOR * st.edge_target(a, b);
+        let cp = st
+            .index
+            .closest_point_with_hint(mid, st.hint_face[a.idx()])?;
+        (cp.distance_squared > tol * tol).then_some((e.0, [a.0, b.0], cp.point, cp.face))
+    });
     let mut count = 0u64;
     for (k, &(i, ends, p, face)) in candidates.iter().enumerate() {
         if k % 4096 == 0 && cancelled() {

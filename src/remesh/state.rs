@@ -264,6 +264,21 @@ impl State {
         0.5 * (self.size[a.idx()] + self.size[b.idx()])
     }
 
+    /// Runs `f` on every live edge in parallel, in the worker pool, and
+    /// returns the `Some` results in edge order (the candidate scans of the
+    /// topological passes).
+    pub fn par_edges<T: Send>(&self, f: impl Fn(EdgeId) -> Option<T> + Sync + Send) -> Vec<T> {
+        let m = &self.mesh;
+        self.pool.install(|| {
+            (0..m.edge_capacity() as u32)
+                .into_par_iter()
+                .map(EdgeId)
+                .filter(|&e| !m.is_edge_deleted(e))
+                .filter_map(&f)
+                .collect()
+        })
+    }
+
     /// The feature line of edge `e`, if it is a feature edge.
     #[inline]
     pub fn line_of(&self, e: EdgeId) -> Option<u32> {

@@ -304,79 +304,114 @@ fn guarded_move_in_pool(st: &mut State, targets: &[DVec3], check_input: bool) ->
     let moving: Vec<bool> = (0..nv).map(|i| targets[i] != old[i]).collect();
     let mut scale = vec![1.0f64; nv];
     let mut limited = vec![false; nv];
-    for round in 0..=MAX_HALVINGS + 1 {
-        {
-            let pos = st.mesh.positions_mut();
-            pos.par_iter_mut().enumerate().for_each(|(i, p)| {
-                if moving[i] {
-                    *p = old[i] + scale[i] * (targets[i] - old[i]);
-                }
-            });
-        }
-        if round == MAX_HALVINGS + 1 {
-            break;
-        }
+    {
+        let pos = st.mesh.positions_mut();
+        pos.par_iter_mut().enumerate().for_each(|(i, p)| {
+            if moving[i] {
+                *p = old[i] + (targets[i] - old[i]);
+            }
+        });
+    }
+    // The first round checks every face; a later round only the faces
+    // around the vertices whose move was just cut back, since every other
+    // face kept its corners and passed the round before.
+    let mut candidates: Option<Vec<FaceId>> = None;
+    let mut mark = vec![false; st.mesh.face_capacity()];
+    for round in 0..=MAX_HALVINGS {
         let m = &st.mesh;
-        let input_normals = &st.input_normals;
-        let hint_face = &st.hint_face;
-        let old = &old;
-        let bad: Vec<FaceId> = (0..m.face_capacity() as u32)
-            .into_par_iter()
-            .map(FaceId)
-            .filter(|&f| {
-                if m.is_face_deleted(f) {
-                    return false;
-                }
-                let vs = m.face_vertices(f);
-                if !vs.iter().any(|v| moving[v.idx()] && scale[v.idx()] > 0.0) {
-                    return false;
-                }
-                let t = vs.map(|v| m.position(v));
-                let t0 = vs.map(|v| old[v.idx()]);
-                let n = triangle_cross(t);
-                let n0 = triangle_cross(t0);
-                let ln = n.length();
-                if ln <= 0.0 || n.dot(n0) <= MAX_NORMAL_CHANGE_COS * ln * n0.length() {
-                    return true;
-                }
-                // Quality 2·√3·|n| / Σ edge² below the floor, and worse than before.
-                if SQRT_12 * ln < MIN_QUALITY * squared_edge_sum(t)
-                    && triangle_quality(t) < triangle_quality(t0)
-                {
-                    return true;
-                }
-                if check_input {
-                    let r: DVec3 = vs
-                        .iter()
-                        .map(|v| input_normals[hint_face[v.idx()] as usize])
-                        .sum();
-                    if n.dot(r) <= 0.0 {
-                        return true;
-                    }
-                }
-                false
-            })
-            .collect();
+        let check = |f: FaceId| -> bool {
+            if m.is_face_deleted(f) {
+                return false;
+            }
+            let vs = m.face_vertices(f);
+            if !vs.iter().any(|v| moving[v.idx()] && scale[v.idx()] > 0.0) {
+                return false;
+            }
+            face_breaks(st, vs, &old, check_input)
+        };
+        let bad: Vec<FaceId> = match &candidates {
+            None => (0..m.face_capacity() as u32)
+                .into_par_iter()
+                .map(FaceId)
+                .filter(|&f| check(f))
+                .collect(),
+            Some(list) => list.par_iter().copied().filter(|&f| check(f)).collect(),
+        };
         if bad.is_empty() {
             break;
         }
-        let mut touched = vec![false; nv];
+        let mut touched: Vec<VertexId> = Vec::new();
         for f in bad {
-            for v in st.mesh.face_vertices(f) {
-                let i = v.idx();
-                if moving[i] && !touched[i] {
-                    touched[i] = true;
-                    limited[i] = true;
-                    scale[i] = if round + 1 >= MAX_HALVINGS {
-                        0.0
-                    } else {
-                        scale[i] * 0.5
-                    };
+            for v in m.face_vertices(f) {
+                if moving[v.idx()] {
+                    touched.push(v);
                 }
             }
         }
+        touched.sort_unstable_by_key(|v| v.0);
+        touched.dedup();
+        let mut next = Vec::new();
+        for &v in &touched {
+            let i = v.idx();
+            limited[i] = true;
+            scale[i] = if round + 1 >= MAX_HALVINGS {
+                0.0
+            } else {
+                scale[i] * 0.5
+            };
+            for h in m.outgoing(v) {
+                let f = m.face(h);
+                if f.is_valid() && !mark[f.idx()] {
+                    mark[f.idx()] = true;
+                    next.push(f);
+                }
+            }
+        }
+        for f in &next {
+            mark[f.idx()] = false;
+        }
+        next.sort_unstable_by_key(|f| f.0);
+        let pos = st.mesh.positions_mut();
+        for &v in &touched {
+            let i = v.idx();
+            pos[i] = old[i] + scale[i] * (targets[i] - old[i]);
+        }
+        candidates = Some(next);
     }
     limited.iter().filter(|&&l| l).count() as u64
+}
+
+/// Whether the face with corners `vs` is broken by the move from `old`: it
+/// degenerates, turns by more than 60°, falls below the quality floor while
+/// getting worse, or (with `check_input`) faces away from the input under
+/// its corners.
+#[inline]
+fn face_breaks(st: &State, vs: [VertexId; 3], old: &[DVec3], check_input: bool) -> bool {
+    let m = &st.mesh;
+    let t = vs.map(|v| m.position(v));
+    let t0 = vs.map(|v| old[v.idx()]);
+    let n = triangle_cross(t);
+    let n0 = triangle_cross(t0);
+    let ln = n.length();
+    if ln <= 0.0 || n.dot(n0) <= MAX_NORMAL_CHANGE_COS * ln * n0.length() {
+        return true;
+    }
+    // Quality 2·√3·|n| / Σ edge² below the floor, and worse than before.
+    if SQRT_12 * ln < MIN_QUALITY * squared_edge_sum(t)
+        && triangle_quality(t) < triangle_quality(t0)
+    {
+        return true;
+    }
+    if check_input {
+        let r: DVec3 = vs
+            .iter()
+            .map(|v| st.input_normals[st.hint_face[v.idx()] as usize])
+            .sum();
+        if n.dot(r) <= 0.0 {
+            return true;
+        }
+    }
+    false
 }
 
 /// Sum of the squared edge lengths of triangle `t`.

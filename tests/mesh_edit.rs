@@ -1,9 +1,10 @@
 //! Property tests of the guarded operators: random sequences of split,
 //! collapse and flip on generated shapes keep the mesh valid and the Euler
-//! characteristic unchanged; compaction keeps the geometry.
+//! characteristic unchanged; compaction, in order or in any vertex order,
+//! keeps the geometry, the face labels and the feature flags.
 
 use glam::DVec3;
-use isoremesh::mesh::{EdgeId, HalfedgeId, Mesh, EDGE_FEATURE};
+use isoremesh::mesh::{EdgeId, HalfedgeId, Handle, Mesh, EDGE_FEATURE};
 use isoremesh::{shapes, TriMesh};
 use proptest::prelude::*;
 
@@ -23,6 +24,7 @@ enum Op {
     Collapse(u32, bool),
     Flip(u32),
     Compact,
+    Reorder(u64),
 }
 
 fn op() -> impl Strategy<Value = Op> {
@@ -31,6 +33,7 @@ fn op() -> impl Strategy<Value = Op> {
         3 => (any::<u32>(), any::<bool>()).prop_map(|(e, d)| Op::Collapse(e, d)),
         3 => any::<u32>().prop_map(Op::Flip),
         1 => Just(Op::Compact),
+        1 => any::<u64>().prop_map(Op::Reorder),
     ]
 }
 
@@ -100,6 +103,24 @@ proptest! {
                     prop_assert!(!mesh.has_garbage());
                     prop_assert_eq!(mesh.to_trimesh(), before);
                 }
+                Op::Reorder(seed) => {
+                    let before = canonical(&mesh);
+                    let mut order: Vec<_> = mesh.vertices().collect();
+                    // A seeded shuffle (xorshift), so any order is exercised.
+                    let mut x = seed | 1;
+                    for i in (1..order.len()).rev() {
+                        x ^= x << 13;
+                        x ^= x >> 7;
+                        x ^= x << 17;
+                        order.swap(i, (x % (i as u64 + 1)) as usize);
+                    }
+                    let remap = mesh.compact_in_order(&order);
+                    prop_assert!(!mesh.has_garbage());
+                    for (k, v) in order.iter().enumerate() {
+                        prop_assert_eq!(remap.vertices[v.idx()], k as u32);
+                    }
+                    prop_assert_eq!(canonical(&mesh), before);
+                }
             }
             if let Err(err) = mesh.validate() {
                 return Err(TestCaseError::fail(format!("{err} after {op:?}")));
@@ -108,6 +129,38 @@ proptest! {
             prop_assert_eq!(mesh.boundary_loop_count(), loops);
         }
     }
+}
+
+/// The mesh as index-free sets: each face as its corner positions (bits),
+/// rotated to start at the smallest and tagged with its label, and each
+/// flagged edge as its sorted end positions.
+type Canonical = (Vec<([[u64; 3]; 3], u32)>, Vec<([[u64; 3]; 2], u8)>);
+
+fn canonical(mesh: &Mesh) -> Canonical {
+    let bits = |v| {
+        let p: DVec3 = mesh.position(v);
+        [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()]
+    };
+    let mut faces: Vec<_> = mesh
+        .faces()
+        .map(|f| {
+            let c = mesh.face_vertices(f).map(bits);
+            let k = (0..3).min_by_key(|&k| c[k]).unwrap();
+            ([c[k], c[(k + 1) % 3], c[(k + 2) % 3]], mesh.face_label[f])
+        })
+        .collect();
+    faces.sort();
+    let mut edges: Vec<_> = mesh
+        .edges()
+        .filter(|&e| mesh.edge_flags[e] != 0)
+        .map(|e| {
+            let mut ends = mesh.edge_vertices(e).map(bits);
+            ends.sort();
+            (ends, mesh.edge_flags[e])
+        })
+        .collect();
+    edges.sort();
+    (faces, edges)
 }
 
 #[test]

@@ -31,15 +31,17 @@ fn table(deleted: &[bool]) -> Vec<u32> {
         .collect()
 }
 
-fn retain<T: Copy>(v: &mut Vec<T>, map: &[u32]) {
-    let mut k = 0;
-    for i in 0..v.len() {
-        if map[i] != u32::MAX {
-            v[k] = v[i];
-            k += 1;
+/// Scatters the live entries of `v` to their new places (`map[i]` is the
+/// new index of entry `i`, `u32::MAX` drops it).
+fn scatter<T: Copy>(v: &mut Vec<T>, map: &[u32], len: usize, fill: T) {
+    let mut out = vec![fill; len];
+    for (i, &x) in v.iter().enumerate() {
+        let j = map[i];
+        if j != u32::MAX {
+            out[j as usize] = x;
         }
     }
-    v.truncate(k);
+    *v = out;
 }
 
 impl Mesh {
@@ -49,6 +51,59 @@ impl Mesh {
         let vmap = table(&self.v_deleted);
         let emap = table(&self.e_deleted);
         let fmap = table(&self.f_deleted);
+        self.apply_remap(vmap, emap, fmap)
+    }
+
+    /// Removes deleted elements and renumbers the rest for memory locality:
+    /// vertices in the order of `order` (every live vertex exactly once),
+    /// and each edge and face when it is first met around those vertices,
+    /// so that neighbours in the mesh are mostly neighbours in memory.
+    /// Returns the old-to-new tables, as [`Mesh::compact`] does.
+    ///
+    /// # Panics
+    /// If `order` does not list every live vertex exactly once.
+    pub fn compact_in_order(&mut self, order: &[VertexId]) -> Remap {
+        assert_eq!(
+            order.len(),
+            self.live_vertices,
+            "order must list every live vertex"
+        );
+        let mut vmap = vec![u32::MAX; self.pos.len()];
+        let mut emap = vec![u32::MAX; self.e_deleted.len()];
+        let mut fmap = vec![u32::MAX; self.f_deleted.len()];
+        let (mut ne, mut nf) = (0u32, 0u32);
+        for (k, &v) in order.iter().enumerate() {
+            assert!(
+                !self.v_deleted[v.idx()] && vmap[v.idx()] == u32::MAX,
+                "order must list live vertices once"
+            );
+            vmap[v.idx()] = k as u32;
+            for h in self.outgoing(v) {
+                let e = h.idx() >> 1;
+                if emap[e] == u32::MAX {
+                    emap[e] = ne;
+                    ne += 1;
+                }
+                let f = self.he_face[h.idx()];
+                if f.is_valid() && fmap[f.idx()] == u32::MAX {
+                    fmap[f.idx()] = nf;
+                    nf += 1;
+                }
+            }
+        }
+        assert_eq!(
+            ne as usize, self.live_edges,
+            "every live edge has a live end"
+        );
+        assert_eq!(
+            nf as usize, self.live_faces,
+            "every live face has a live corner"
+        );
+        self.apply_remap(vmap, emap, fmap)
+    }
+
+    /// Moves every live element to its new index and rewrites every handle.
+    fn apply_remap(&mut self, vmap: Vec<u32>, emap: Vec<u32>, fmap: Vec<u32>) -> Remap {
         // Half-edge map follows the edge map (pairs stay pairs).
         let hmap = |h: HalfedgeId| -> HalfedgeId {
             if !h.is_valid() {
@@ -58,50 +113,60 @@ impl Mesh {
             debug_assert!(e != u32::MAX, "live element refers to a deleted edge");
             HalfedgeId((e << 1) | (h.0 & 1))
         };
-        let mut hdeleted = Vec::with_capacity(self.he_to.len());
-        for &d in &self.e_deleted {
-            hdeleted.extend_from_slice(&[d, d]);
-        }
-        let hkeep = table(&hdeleted);
+        let hmap_table: Vec<u32> = (0..self.he_to.len())
+            .map(|h| {
+                let e = emap[h >> 1];
+                if e == u32::MAX {
+                    u32::MAX
+                } else {
+                    (e << 1) | (h as u32 & 1)
+                }
+            })
+            .collect();
+        let (nv, ne, nf) = (self.live_vertices, self.live_edges, self.live_faces);
 
-        for h in &mut self.v_out {
-            *h = hmap(*h);
+        for (i, h) in self.v_out.iter_mut().enumerate() {
+            if vmap[i] != u32::MAX {
+                *h = hmap(*h);
+            }
         }
-        for v in &mut self.he_to {
-            if v.is_valid() && vmap[v.idx()] != u32::MAX {
+        for (i, v) in self.he_to.iter_mut().enumerate() {
+            if hmap_table[i] != u32::MAX && v.is_valid() {
                 *v = VertexId(vmap[v.idx()]);
             }
         }
-        for h in self.he_next.iter_mut().chain(self.he_prev.iter_mut()) {
-            if h.is_valid() && emap[h.idx() >> 1] != u32::MAX {
+        for (i, h) in self.he_next.iter_mut().enumerate() {
+            if hmap_table[i] != u32::MAX {
                 *h = hmap(*h);
             }
         }
-        for f in &mut self.he_face {
-            if f.is_valid() && fmap[f.idx()] != u32::MAX {
+        for (i, h) in self.he_prev.iter_mut().enumerate() {
+            if hmap_table[i] != u32::MAX {
+                *h = hmap(*h);
+            }
+        }
+        for (i, f) in self.he_face.iter_mut().enumerate() {
+            if hmap_table[i] != u32::MAX && f.is_valid() {
                 *f = FaceId(fmap[f.idx()]);
             }
         }
-        for h in &mut self.f_he {
-            if h.is_valid() && emap[h.idx() >> 1] != u32::MAX {
+        for (i, h) in self.f_he.iter_mut().enumerate() {
+            if fmap[i] != u32::MAX {
                 *h = hmap(*h);
             }
         }
-        retain(&mut self.pos, &vmap);
-        retain(&mut self.v_out, &vmap);
-        retain(&mut self.v_deleted, &vmap);
-        retain(&mut self.he_to, &hkeep);
-        retain(&mut self.he_next, &hkeep);
-        retain(&mut self.he_prev, &hkeep);
-        retain(&mut self.he_face, &hkeep);
-        retain(&mut self.e_deleted, &emap);
-        retain(&mut self.f_he, &fmap);
-        retain(&mut self.f_deleted, &fmap);
+        scatter(&mut self.pos, &vmap, nv, Default::default());
+        scatter(&mut self.v_out, &vmap, nv, HalfedgeId::INVALID);
+        scatter(&mut self.v_deleted, &vmap, nv, false);
+        scatter(&mut self.he_to, &hmap_table, 2 * ne, VertexId::INVALID);
+        scatter(&mut self.he_next, &hmap_table, 2 * ne, HalfedgeId::INVALID);
+        scatter(&mut self.he_prev, &hmap_table, 2 * ne, HalfedgeId::INVALID);
+        scatter(&mut self.he_face, &hmap_table, 2 * ne, FaceId::INVALID);
+        scatter(&mut self.e_deleted, &emap, ne, false);
+        scatter(&mut self.f_he, &fmap, nf, HalfedgeId::INVALID);
+        scatter(&mut self.f_deleted, &fmap, nf, false);
         self.face_label.remap(&fmap);
         self.edge_flags.remap(&emap);
-        debug_assert_eq!(self.pos.len(), self.live_vertices);
-        debug_assert_eq!(self.e_deleted.len(), self.live_edges);
-        debug_assert_eq!(self.f_he.len(), self.live_faces);
         Remap {
             vertices: vmap,
             edges: emap,

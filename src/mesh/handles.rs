@@ -151,17 +151,18 @@ impl<H: Handle, T: Clone> Attr<H, T> {
     }
 
     /// Applies a compaction remap: `new_of_old[i]` is the new index of old
-    /// element `i`, or `u32::MAX` when it was removed.
+    /// element `i`, or `u32::MAX` when it was removed. The new indices must
+    /// be `0..n` for the `n` kept elements, in any order.
     pub fn remap(&mut self, new_of_old: &[u32]) {
-        let mut kept = 0usize;
-        for (old, &new) in new_of_old.iter().enumerate() {
-            if new != u32::MAX {
-                debug_assert!(new as usize == kept, "remap must keep order");
-                self.data.swap(kept, old);
-                kept += 1;
+        let n = new_of_old.iter().filter(|&&j| j != u32::MAX).count();
+        let mut data = vec![self.default.clone(); n];
+        for (old, value) in self.data.drain(..).enumerate() {
+            let j = new_of_old.get(old).copied().unwrap_or(u32::MAX);
+            if j != u32::MAX {
+                data[j as usize] = value;
             }
         }
-        self.data.truncate(kept);
+        self.data = data;
     }
 }
 

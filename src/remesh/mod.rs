@@ -281,6 +281,9 @@ fn run(
             let t = Instant::now();
             ir.splits = split::split_long_edges(&mut st, &|| observer.is_cancelled())?;
             ir.splits += split::split_deviating_edges(&mut st, &|| observer.is_cancelled())?;
+            if ir.splits as usize * 4 > st.mesh.face_count() {
+                st.renumber();
+            }
             report.seconds.split += t.elapsed().as_secs_f64();
         }
         if options.collapse {
@@ -332,6 +335,9 @@ fn run(
             }
         }
         ir.faces = st.mesh.face_count() as u64;
+        if it == 1 {
+            st.renumber();
+        }
         report.iterations.push(ir);
         debug_assert!(st.mesh.validate().is_ok(), "{:?}", st.mesh.validate());
     }

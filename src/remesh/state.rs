@@ -318,6 +318,43 @@ impl State {
         r
     }
 
+    /// Drops deleted elements and renumbers the mesh along a Morton curve
+    /// through the vertex positions (ties by index, so the order does not
+    /// depend on the thread count), carrying the per-vertex and per-edge
+    /// state along. Splits append vertices wherever edges are long, so after
+    /// a pass with many of them ring neighbours are scattered in memory;
+    /// renumbering keeps them close for every later pass.
+    pub fn renumber(&mut self) {
+        let m = &self.mesh;
+        let live: Vec<u32> = m.vertices().map(|v| v.0).collect();
+        let (lo, hi) = live.iter().fold(
+            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(lo, hi), &i| {
+                let p = m.position(VertexId(i));
+                (lo.min(p), hi.max(p))
+            },
+        );
+        let scale = 2_097_151.0 / (hi - lo).max_element().max(f64::MIN_POSITIVE);
+        let mut keyed: Vec<(u64, u32)> = self.pool.install(|| {
+            live.par_iter()
+                .map(|&i| {
+                    let q = ((m.position(VertexId(i)) - lo) * scale).round();
+                    (morton3(q.x as u64, q.y as u64, q.z as u64), i)
+                })
+                .collect()
+        });
+        self.pool.install(|| keyed.par_sort_unstable());
+        let order: Vec<VertexId> = keyed.iter().map(|&(_, i)| VertexId(i)).collect();
+        let remap = self.mesh.compact_in_order(&order);
+        let nv = self.mesh.vertex_capacity();
+        let ne = self.mesh.edge_capacity();
+        permute(&mut self.kind, &remap.vertices, nv);
+        permute(&mut self.hint_face, &remap.vertices, nv);
+        permute(&mut self.hint_seg, &remap.vertices, nv);
+        permute(&mut self.size, &remap.vertices, nv);
+        permute(&mut self.edge_line, &remap.edges, ne);
+    }
+
     /// Compacts the mesh and returns it with per-vertex target sizes.
     pub fn finish(mut self) -> (Mesh, Vec<f64>) {
         let remap = self.mesh.compact();
@@ -564,4 +601,33 @@ mod tests {
             assert_eq!(missing > 0, open);
         }
     }
+}
+
+/// Spreads the bits of a 21-bit value three apart.
+fn spread3(x: u64) -> u64 {
+    let mut x = x & 0x1f_ffff;
+    x = (x | x << 32) & 0x1f_0000_0000_ffff;
+    x = (x | x << 16) & 0x1f_0000_ff00_00ff;
+    x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
+    x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
+    (x | x << 2) & 0x1249_2492_4924_9249
+}
+
+/// Morton code of a point quantised to 21 bits per axis.
+fn morton3(x: u64, y: u64, z: u64) -> u64 {
+    spread3(x) | spread3(y) << 1 | spread3(z) << 2
+}
+
+/// Moves the entries of a per-element table to their new indices (`map[i]`
+/// is the new index of entry `i`, `u32::MAX` drops it).
+fn permute<T: Copy + Default>(v: &mut Vec<T>, map: &[u32], len: usize) {
+    let mut out = vec![T::default(); len];
+    for (i, &x) in v.iter().enumerate() {
+        if let Some(&j) = map.get(i) {
+            if j != u32::MAX {
+                out[j as usize] = x;
+            }
+        }
+    }
+    *v = out;
 }

@@ -570,6 +570,35 @@ fn check_estimate(area: f64, l: f64, limit: u64) -> Result<(), RemeshError> {
     Ok(())
 }
 
+/// Spreads the bits of a 21-bit value three apart.
+fn spread3(x: u64) -> u64 {
+    let mut x = x & 0x1f_ffff;
+    x = (x | x << 32) & 0x1f_0000_0000_ffff;
+    x = (x | x << 16) & 0x1f_0000_ff00_00ff;
+    x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
+    x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
+    (x | x << 2) & 0x1249_2492_4924_9249
+}
+
+/// Morton code of a point quantised to 21 bits per axis.
+fn morton3(x: u64, y: u64, z: u64) -> u64 {
+    spread3(x) | spread3(y) << 1 | spread3(z) << 2
+}
+
+/// Moves the entries of a per-element table to their new indices (`map[i]`
+/// is the new index of entry `i`, `u32::MAX` drops it).
+fn permute<T: Copy + Default>(v: &mut Vec<T>, map: &[u32], len: usize) {
+    let mut out = vec![T::default(); len];
+    for (i, &x) in v.iter().enumerate() {
+        if let Some(&j) = map.get(i) {
+            if j != u32::MAX {
+                out[j as usize] = x;
+            }
+        }
+    }
+    *v = out;
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -601,33 +630,4 @@ mod tests {
             assert_eq!(missing > 0, open);
         }
     }
-}
-
-/// Spreads the bits of a 21-bit value three apart.
-fn spread3(x: u64) -> u64 {
-    let mut x = x & 0x1f_ffff;
-    x = (x | x << 32) & 0x1f_0000_0000_ffff;
-    x = (x | x << 16) & 0x1f_0000_ff00_00ff;
-    x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
-    x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
-    (x | x << 2) & 0x1249_2492_4924_9249
-}
-
-/// Morton code of a point quantised to 21 bits per axis.
-fn morton3(x: u64, y: u64, z: u64) -> u64 {
-    spread3(x) | spread3(y) << 1 | spread3(z) << 2
-}
-
-/// Moves the entries of a per-element table to their new indices (`map[i]`
-/// is the new index of entry `i`, `u32::MAX` drops it).
-fn permute<T: Copy + Default>(v: &mut Vec<T>, map: &[u32], len: usize) {
-    let mut out = vec![T::default(); len];
-    for (i, &x) in v.iter().enumerate() {
-        if let Some(&j) = map.get(i) {
-            if j != u32::MAX {
-                out[j as usize] = x;
-            }
-        }
-    }
-    *v = out;
 }

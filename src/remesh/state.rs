@@ -606,6 +606,19 @@ mod tests {
     /// Every face's neighbour across edge `k` holds that edge reversed, and
     /// only boundary edges of an open grid have none.
     #[test]
+    fn morton_codes_interleave_the_axes() {
+        assert_eq!(morton3(1, 0, 0), 1);
+        assert_eq!(morton3(0, 1, 0), 2);
+        assert_eq!(morton3(0, 0, 1), 4);
+        assert_eq!(morton3(3, 0, 0), 0b1001);
+        let max = 0x1f_ffff;
+        assert_eq!(morton3(max, max, max), (1u64 << 63) - 1);
+        assert_eq!(morton3(max, 0, 0), 0x1249_2492_4924_9249);
+        // Order along x alone is kept.
+        assert!(morton3(5, 7, 2) < morton3(6, 7, 2));
+    }
+
+    #[test]
     fn face_neighbors_cross_the_named_edge() {
         for (tm, open) in [
             (crate::shapes::icosphere(2), false),

@@ -58,51 +58,56 @@ pub(super) fn flip_edges(
     let mut count = 0u64;
     // The first sweep visits every edge (or the seed); later sweeps only the
     // edges around the quads that changed, in index order (deterministic).
-    // The first sweep's candidates are found in parallel with the valences
-    // at the start; flips queue every edge whose valences they change.
-    let mut work: Vec<u32> = match seed {
-        Some(seed) => seed,
-        None => st.par_edges(|e| {
-            let m = &st.mesh;
-            if m.is_boundary_edge(e) {
-                return None;
-            }
-            let (before, after) = deviation_change(&valence, &target, quad(m, e.halfedge(0)));
-            (after <= before).then_some(e.0)
-        }),
+    // The first sweep's candidates, and whether each should flip, are found
+    // in parallel with the valences at the start. A flip changes only the
+    // valences and faces of its own quad's four vertices (marked dirty), so
+    // a decision made in advance still holds when none of the candidate's
+    // quad vertices is dirty; the others are decided again in turn. The
+    // result is the same as deciding every candidate in turn.
+    let mut work: Vec<(u32, Option<bool>)> = {
+        let (valence, target) = (&valence, &target);
+        match seed {
+            Some(seed) => st.pool.install(|| {
+                seed.par_iter()
+                    .map(|&i| (i, Some(flip_wanted(st, valence, target, EdgeId(i)))))
+                    .collect()
+            }),
+            None => st.par_edges(|e| {
+                let m = &st.mesh;
+                if m.is_boundary_edge(e) {
+                    return None;
+                }
+                let (before, after) = deviation_change(valence, target, quad(m, e.halfedge(0)));
+                (after <= before).then(|| (e.0, Some(flip_wanted(st, valence, target, e))))
+            }),
+        }
     };
+    let mut dirty = vec![false; st.mesh.vertex_capacity()];
     let mut queued = vec![false; st.mesh.edge_capacity()];
     for _ in 0..MAX_SWEEPS {
         let mut flipped = 0u64;
         let mut next: Vec<u32> = Vec::new();
-        for (k, &i) in work.iter().enumerate() {
+        for (k, &(i, decided)) in work.iter().enumerate() {
             if k % 4096 == 0 && cancelled() {
                 return Err(RemeshError::Cancelled);
             }
             let e = EdgeId(i);
-            if st.mesh.is_edge_deleted(e) || st.line_of(e).is_some() || st.mesh.is_boundary_edge(e)
-            {
+            if st.mesh.is_edge_deleted(e) {
                 continue;
             }
-            let m = &st.mesh;
-            let q = quad(m, e.halfedge(0));
-            let [a, b, c, d] = q;
-            let (before, after) = deviation_change(&valence, &target, q);
-            if after > before {
-                continue;
-            }
-            let (old, new) = quad_triangles(m, q);
-            let valence_gain = after < before;
-            if !valence_gain && !improves_delaunay(old) {
-                continue;
-            }
-            if !geometry_ok(old, new) || !m.can_flip(e) {
+            let q = quad(&st.mesh, e.halfedge(0));
+            let wanted = match decided {
+                Some(w) if !q.iter().any(|v| dirty[v.idx()]) => w,
+                _ => flip_wanted(st, &valence, &target, e),
+            };
+            if !wanted {
                 continue;
             }
             st.mesh.flip_edge(e);
             // The valences of a, b, c and d changed: every edge at them may
             // now profit from a flip.
-            for v in [a, b, c, d] {
+            for v in q {
+                dirty[v.idx()] = true;
                 for g in st.mesh.outgoing(v) {
                     let j = g.edge().idx();
                     if !queued[j] {
@@ -111,6 +116,7 @@ pub(super) fn flip_edges(
                     }
                 }
             }
+            let [a, b, c, d] = q;
             valence[a.idx()] -= 1;
             valence[b.idx()] -= 1;
             valence[c.idx()] += 1;
@@ -125,9 +131,29 @@ pub(super) fn flip_edges(
         for &j in &next {
             queued[j as usize] = false;
         }
-        work = next;
+        work = next.into_iter().map(|j| (j, None)).collect();
     }
     Ok(count)
+}
+
+/// Whether edge `e` should flip now: not a feature or boundary edge, the
+/// flip does not raise the valence deviation (and lowers it, or repairs a
+/// non-Delaunay pair), and it passes the geometric and topological guards.
+fn flip_wanted(st: &State, valence: &[i32], target: &[i32], e: EdgeId) -> bool {
+    let m = &st.mesh;
+    if m.is_edge_deleted(e) || st.line_of(e).is_some() || m.is_boundary_edge(e) {
+        return false;
+    }
+    let q = quad(m, e.halfedge(0));
+    let (before, after) = deviation_change(valence, target, q);
+    if after > before {
+        return false;
+    }
+    let (old, new) = quad_triangles(m, q);
+    if after == before && !improves_delaunay(old) {
+        return false;
+    }
+    geometry_ok(old, new) && m.can_flip(e)
 }
 
 /// Final sweep after the last iteration: a triangle whose smallest angle is

@@ -400,8 +400,12 @@ fn anchor_tips(mesh: &Mesh, kind: &mut [u32]) {
 }
 
 /// Largest sag, in units of the local target length, that an output chord
-/// may leave across an input feature vertex before that vertex is kept.
-const TURN_SAG: f64 = 0.005;
+/// may leave across an input feature vertex before that vertex is kept: the
+/// statistics' on-line tolerance ([`crate::stats::ON_LINE_TOLERANCE`]), so
+/// an output feature line covers the input's within the tolerance it is
+/// measured with. (At 0.005 a 0.4° turn of fandisk's could be cut by just
+/// over that tolerance, depending on where the output vertices fell.)
+const TURN_SAG: f64 = crate::stats::ON_LINE_TOLERANCE;
 
 /// Keeps the feature-line vertices where the input's polyline turns enough
 /// that an output chord across them would cut the turn by more than

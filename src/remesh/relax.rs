@@ -2,7 +2,11 @@
 //! sharing one guarded, parallel move.
 //!
 //! Relaxation moves each smooth vertex to the area-weighted centroid of its
-//! one-ring, projected onto its tangent plane (Botsch & Kobbelt 2004); a
+//! one-ring, projected onto its tangent plane (Botsch & Kobbelt 2004), or,
+//! where two of its ring faces meet at more than 60° (a rounded ridge with
+//! no feature edge), onto the ridge direction only, so that it stays on
+//! the crest that the deviation split put it on (uniform sizing only, like
+//! the split; adaptive sizing refines such crests itself); a
 //! feature-line vertex moves only along its line, toward the midpoint of its
 //! two line neighbours; corners stay. Projection sends smooth vertices to
 //! their closest point on the input surface (BVH query seeded with the face
@@ -42,6 +46,13 @@ const SHAPE_COS: f64 = 0.866_025_403_784_438_6;
 
 /// Edges at a vertex that a shape move may push out of the length band.
 const SHAPE_BAND_SLACK: usize = 1;
+/// Ring faces whose normals [`ridge_direction`] compares, at most.
+const RIDGE_RING: usize = 12;
+/// Two ring face normals further apart than this (60°), as a cosine, make
+/// a vertex a ridge vertex that relaxes only along the ridge. At 40° the
+/// constraint also catches the folds of scans and costs triangle shape; at
+/// 80° it misses rounded ridges.
+const RIDGE_NORMAL_COS: f64 = 0.5;
 /// Face-to-face steps of the projection walk before it gives up and asks
 /// the BVH.
 const WALK_STEPS: usize = 16;
@@ -69,6 +80,26 @@ pub(super) fn relax_and_project(st: &mut State) -> (u64, f64) {
     (project_points(st, &relaxed), relax_seconds)
 }
 
+/// The direction of a rounded ridge through a smooth vertex, from the unit
+/// normals of its ring faces: when two of them are more than
+/// [`RIDGE_NORMAL_COS`] apart, the ring folds over a crest (or into a
+/// valley) that runs along their cross product. Relaxing across it would
+/// slide the vertex off the crest, and the edges over it would then cut the
+/// input (a crest without a feature edge has no line to keep it).
+fn ridge_direction(normals: &[DVec3]) -> Option<DVec3> {
+    let mut worst = (RIDGE_NORMAL_COS, DVec3::ZERO);
+    for (i, a) in normals.iter().enumerate() {
+        for b in &normals[i + 1..] {
+            let c = a.dot(*b);
+            if c < worst.0 {
+                worst = (c, a.cross(*b));
+            }
+        }
+    }
+    let t = worst.1.normalize_or_zero();
+    (t != DVec3::ZERO).then_some(t)
+}
+
 /// Where relaxation sends every vertex (see the module docs).
 fn relax_targets(st: &State) -> Vec<DVec3> {
     let m = &st.mesh;
@@ -76,6 +107,7 @@ fn relax_targets(st: &State) -> Vec<DVec3> {
     let edge_line = &st.edge_line;
     let size = &st.size;
     let adaptive = st.sizing.is_some();
+    let ridges = st.uniform.is_some();
     let targets: Vec<DVec3> = st.pool.install(|| {
         (0..m.vertex_capacity() as u32)
             .into_par_iter()
@@ -94,6 +126,8 @@ fn relax_targets(st: &State) -> Vec<DVec3> {
                         let mut sum = DVec3::ZERO;
                         let mut wsum = 0.0;
                         let mut normal = DVec3::ZERO;
+                        let mut normals = [DVec3::ZERO; RIDGE_RING];
+                        let mut k = 0;
                         for h in m.outgoing(v) {
                             if !m.face(h).is_valid() {
                                 continue;
@@ -103,6 +137,10 @@ fn relax_targets(st: &State) -> Vec<DVec3> {
                             let tri = [p, m.position(a), m.position(b)];
                             let cross = triangle_cross(tri);
                             normal += cross;
+                            if k < RIDGE_RING {
+                                normals[k] = cross.normalize_or_zero();
+                                k += 1;
+                            }
                             let mut w = cross.length();
                             if adaptive {
                                 let hf = (size[i as usize] + size[a.idx()] + size[b.idx()]) / 3.0;
@@ -117,7 +155,11 @@ fn relax_targets(st: &State) -> Vec<DVec3> {
                         }
                         let c = sum / wsum;
                         let d = c - p;
-                        p + d - n * n.dot(d)
+                        match ridge_direction(&normals[..if ridges { k } else { 0 }]) {
+                            // On a rounded ridge: slide along it only.
+                            Some(t) => p + t * t.dot(d),
+                            None => p + d - n * n.dot(d),
+                        }
                     }
                     line => {
                         // Slide along the line toward the midpoint of the two

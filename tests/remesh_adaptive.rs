@@ -159,10 +159,13 @@ fn coarse_polyhedron_stays_within_twice_the_tolerance() {
 #[test]
 fn real_meshes_need_at_most_half_the_uniform_faces_at_no_larger_distance() {
     // The bench's uniform setting (L = 0.75 % of the diagonal, one target
-    // everywhere) against the
-    // default adaptive one (ε = 0.1 % of the diagonal). Measured with the
-    // bench's quality.py at 200k samples: spot 40 % of the faces at 1.46 vs
-    // 1.73 ‰, fertility 36 % at 1.77 vs 1.99 ‰ of the diagonal.
+    // everywhere) against the default adaptive one (ε = 0.1 % of the
+    // diagonal). The Hausdorff distance is a maximum, so one run moves by
+    // ±10 % with small changes of the setting (or of the order in which the
+    // passes meet the edges): both sides are measured at the setting and
+    // 3 % either side, and the medians are compared (and the adaptive one
+    // with 2ε). Every adaptive run must have at most half the faces of the
+    // uniform run at the same scale.
     for name in ["spot.obj", "fertility.off"] {
         let input = data_support::mesh(name);
         let reference = input.to_trimesh();
@@ -180,23 +183,42 @@ fn real_meshes_need_at_most_half_the_uniform_faces_at_no_larger_distance() {
             );
             (s.faces, s.distance.unwrap().hausdorff)
         };
-        // Plain uniform sizing: `refine_curved` borrows part of the adaptive
-        // field itself, which is not the comparison meant here.
-        let (fu, hu) = measure(&RemeshOptions {
-            refine_curved: false,
-            ..RemeshOptions::default().with_target_edge_ratio(0.0075)
-        });
         let eps = 1e-3 * diag;
-        let (fa, ha) = measure(&adaptive(eps));
-        eprintln!(
-            "{name}: uniform {fu} faces at {:.3} ‰, adaptive {fa} ({:.0} %) at {:.3} ‰ = {:.2} ε",
-            1e3 * hu / diag,
-            100.0 * fa as f64 / fu as f64,
-            1e3 * ha / diag,
-            ha / eps
+        let (mut hus, mut has, mut rel) = (Vec::new(), Vec::new(), Vec::new());
+        for k in [0.97, 1.0, 1.03] {
+            // Plain uniform sizing: `refine_curved` borrows part of the
+            // adaptive field itself, which is not the comparison meant here.
+            let (fu, hu) = measure(&RemeshOptions {
+                refine_curved: false,
+                ..RemeshOptions::default().with_target_edge_ratio(0.0075 * k)
+            });
+            let (fa, ha) = measure(&adaptive(eps * k));
+            eprintln!(
+                "{name} ×{k}: uniform {fu} faces at {:.3} ‰, adaptive {fa} ({:.0} %) at {:.3} ‰ = {:.2} ε",
+                1e3 * hu / diag,
+                100.0 * fa as f64 / fu as f64,
+                1e3 * ha / diag,
+                ha / (eps * k)
+            );
+            assert!(
+                2 * fa <= fu,
+                "{name} ×{k}: adaptive {fa} faces, uniform {fu}"
+            );
+            hus.push(hu);
+            has.push(ha);
+            rel.push(ha / (eps * k));
+        }
+        let median = |v: &mut Vec<f64>| {
+            v.sort_by(f64::total_cmp);
+            v[1]
+        };
+        let (hu, ha) = (median(&mut hus), median(&mut has));
+        assert!(
+            ha <= hu,
+            "{name}: median adaptive distance {ha} > uniform {hu}"
         );
-        assert!(2 * fa <= fu, "{name}: adaptive {fa} faces, uniform {fu}");
-        assert!(ha <= hu, "{name}: adaptive distance {ha} > uniform {hu}");
-        assert!(ha <= 2.0 * eps, "{name}: {ha} > 2ε = {}", 2.0 * eps);
+        // Each adaptive run against its own tolerance ε·k.
+        let r = median(&mut rel);
+        assert!(r <= 2.0, "{name}: median adaptive distance {r} ε > 2ε");
     }
 }

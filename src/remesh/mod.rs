@@ -274,6 +274,9 @@ fn run(
     };
     report.seconds.prepare = start.elapsed().as_secs_f64();
 
+    // Renumbered once in the first iteration, after its splits when they
+    // added many elements and otherwise at its end (see State::renumber).
+    let mut renumbered = false;
     for it in 1..=iterations {
         let mut ir = IterationReport::default();
         if options.split {
@@ -283,6 +286,7 @@ fn run(
             ir.splits += split::split_deviating_edges(&mut st, &|| observer.is_cancelled())?;
             if ir.splits as usize * 4 > st.mesh.face_count() {
                 st.renumber();
+                renumbered = true;
             }
             report.seconds.split += t.elapsed().as_secs_f64();
         }
@@ -335,7 +339,7 @@ fn run(
             }
         }
         ir.faces = st.mesh.face_count() as u64;
-        if it == 1 {
+        if it == 1 && !renumbered {
             st.renumber();
         }
         report.iterations.push(ir);

@@ -1,5 +1,7 @@
 //! Compaction ("garbage collection"): removes deleted elements and remaps
-//! every handle, keeping the relative order of the survivors.
+//! every handle, keeping the relative order of the survivors
+//! ([`Mesh::compact`]) or renumbering them in a caller's vertex order for
+//! memory locality ([`Mesh::compact_in_order`]).
 
 use super::{FaceId, HalfedgeId, Mesh, VertexId};
 use crate::mesh::handles::Handle;

@@ -1,7 +1,8 @@
 //! The working state of a remesh: the mesh being changed, the reference
 //! (input surface index, feature set, sizing field) and the per-element data
 //! that follows the operators: each vertex's feature kind, its projection
-//! hints and target size, and each edge's feature line. Uniform sizing with
+//! hints and target size, and each edge's feature line, all carried along
+//! when the mesh is renumbered for locality. Uniform sizing with
 //! `refine_curved` builds the adaptive field of [`crate::sizing`] at the
 //! chord tolerance [`CURVED_TOLERANCE`]·L, clamped to [3/4·L, L].
 

@@ -34,13 +34,15 @@ fn table(deleted: &[bool]) -> Vec<u32> {
 }
 
 /// Scatters the live entries of `v` to their new places (`map[i]` is the
-/// new index of entry `i`, `u32::MAX` drops it).
-fn scatter<T: Copy>(v: &mut Vec<T>, map: &[u32], len: usize, fill: T) {
+/// new index of entry `i`; `u32::MAX`, or no entry in `map`, drops it) in a
+/// table of `len` entries, the rest `fill`. Callers with their own
+/// per-element tables apply a [`Remap`] with it.
+pub fn scatter<T: Copy>(v: &mut Vec<T>, map: &[u32], len: usize, fill: T) {
     let mut out = vec![fill; len];
     for (i, &x) in v.iter().enumerate() {
-        let j = map[i];
-        if j != u32::MAX {
-            out[j as usize] = x;
+        match map.get(i) {
+            Some(&j) if j != u32::MAX => out[j as usize] = x,
+            _ => {}
         }
     }
     *v = out;
@@ -107,14 +109,6 @@ impl Mesh {
     /// Moves every live element to its new index and rewrites every handle.
     fn apply_remap(&mut self, vmap: Vec<u32>, emap: Vec<u32>, fmap: Vec<u32>) -> Remap {
         // Half-edge map follows the edge map (pairs stay pairs).
-        let hmap = |h: HalfedgeId| -> HalfedgeId {
-            if !h.is_valid() {
-                return h;
-            }
-            let e = emap[h.idx() >> 1];
-            debug_assert!(e != u32::MAX, "live element refers to a deleted edge");
-            HalfedgeId((e << 1) | (h.0 & 1))
-        };
         let hmap_table: Vec<u32> = (0..self.he_to.len())
             .map(|h| {
                 let e = emap[h >> 1];
@@ -125,6 +119,16 @@ impl Mesh {
                 }
             })
             .collect();
+        let hmap = |h: HalfedgeId| -> HalfedgeId {
+            if !h.is_valid() {
+                return h;
+            }
+            debug_assert!(
+                hmap_table[h.idx()] != u32::MAX,
+                "live element refers to a deleted edge"
+            );
+            HalfedgeId(hmap_table[h.idx()])
+        };
         let (nv, ne, nf) = (self.live_vertices, self.live_edges, self.live_faces);
 
         for (i, h) in self.v_out.iter_mut().enumerate() {
@@ -137,14 +141,11 @@ impl Mesh {
                 *v = VertexId(vmap[v.idx()]);
             }
         }
-        for (i, h) in self.he_next.iter_mut().enumerate() {
-            if hmap_table[i] != u32::MAX {
-                *h = hmap(*h);
-            }
-        }
-        for (i, h) in self.he_prev.iter_mut().enumerate() {
-            if hmap_table[i] != u32::MAX {
-                *h = hmap(*h);
+        for links in [&mut self.he_next, &mut self.he_prev] {
+            for (i, h) in links.iter_mut().enumerate() {
+                if hmap_table[i] != u32::MAX {
+                    *h = hmap(*h);
+                }
             }
         }
         for (i, f) in self.he_face.iter_mut().enumerate() {

@@ -21,7 +21,7 @@ mod handles;
 mod validate;
 
 pub use build::{BuildError, RepairReport};
-pub use compact::Remap;
+pub use compact::{scatter, Remap};
 pub use edit::{CollapseResult, SplitResult};
 pub use handles::{
     Attr, EdgeId, EdgeMap, FaceId, FaceMap, HalfedgeId, Handle, VertexId, VertexMap,

@@ -14,7 +14,7 @@ use crate::bvh::SurfaceIndex;
 use crate::curvature;
 use crate::features::{detect_features, FeatureOptions, FeatureSet, VertexKind};
 use crate::mesh::{
-    CollapseResult, EdgeId, HalfedgeId, Handle, Mesh, SplitResult, VertexId, EDGE_FEATURE,
+    scatter, CollapseResult, EdgeId, HalfedgeId, Handle, Mesh, SplitResult, VertexId, EDGE_FEATURE,
 };
 use crate::sizing::{SizingField, SizingOptions};
 use crate::trimesh::TriMesh;
@@ -349,11 +349,11 @@ impl State {
         let remap = self.mesh.compact_in_order(&order);
         let nv = self.mesh.vertex_capacity();
         let ne = self.mesh.edge_capacity();
-        permute(&mut self.kind, &remap.vertices, nv);
-        permute(&mut self.hint_face, &remap.vertices, nv);
-        permute(&mut self.hint_seg, &remap.vertices, nv);
-        permute(&mut self.size, &remap.vertices, nv);
-        permute(&mut self.edge_line, &remap.edges, ne);
+        scatter(&mut self.kind, &remap.vertices, nv, SMOOTH);
+        scatter(&mut self.hint_face, &remap.vertices, nv, 0);
+        scatter(&mut self.hint_seg, &remap.vertices, nv, 0);
+        scatter(&mut self.size, &remap.vertices, nv, 0.0);
+        scatter(&mut self.edge_line, &remap.edges, ne, NO_LINE);
     }
 
     /// Compacts the mesh and returns it with per-vertex target sizes.
@@ -588,20 +588,6 @@ fn spread3(x: u64) -> u64 {
 /// Morton code of a point quantised to 21 bits per axis.
 fn morton3(x: u64, y: u64, z: u64) -> u64 {
     spread3(x) | spread3(y) << 1 | spread3(z) << 2
-}
-
-/// Moves the entries of a per-element table to their new indices (`map[i]`
-/// is the new index of entry `i`, `u32::MAX` drops it).
-fn permute<T: Copy + Default>(v: &mut Vec<T>, map: &[u32], len: usize) {
-    let mut out = vec![T::default(); len];
-    for (i, &x) in v.iter().enumerate() {
-        if let Some(&j) = map.get(i) {
-            if j != u32::MAX {
-                out[j as usize] = x;
-            }
-        }
-    }
-    *v = out;
 }
 
 #[cfg(test)]

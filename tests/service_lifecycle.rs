@@ -169,11 +169,21 @@ fn results_expire_after_the_ttl() {
     // The sweeper removes the files and marks the job expired.
     let job = s.wait_for(&id, Duration::from_secs(10), |j| j["expired"] == true);
     assert_eq!(job["status"], "succeeded");
-    let files: Vec<_> = std::fs::read_dir(dir.path().join("jobs").join(&id))
-        .unwrap()
-        .map(|e| e.unwrap().file_name().into_string().unwrap())
-        .collect();
-    assert_eq!(files, vec!["job.json".to_string()]);
+    // The record is rewritten through a temporary file and a rename, which
+    // can still be in flight when the expired flag is first served: wait
+    // for the directory to settle.
+    let job_dir = dir.path().join("jobs").join(&id);
+    let list = || -> Vec<String> {
+        std::fs::read_dir(&job_dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().into_string().unwrap())
+            .collect()
+    };
+    let deadline = std::time::Instant::now() + Duration::from_secs(5);
+    while list() != ["job.json"] && std::time::Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert_eq!(list(), vec!["job.json".to_string()]);
     assert_problem(
         s.get(&format!("/v1/jobs/{id}/result?format=obj")),
         410,

@@ -53,6 +53,11 @@ const RIDGE_RING: usize = 12;
 /// constraint also catches the folds of scans and costs triangle shape; at
 /// 80° it misses rounded ridges.
 const RIDGE_NORMAL_COS: f64 = 0.5;
+/// Cosine of 30° (half of [`RIDGE_NORMAL_COS`]'s angle), raised by about
+/// 1e-9 so that rounding cannot let a pair pass the half-angle test and
+/// fail the full one: ring normals all this close to their mean are never
+/// a ridge, and the pairwise test is skipped.
+const RIDGE_HALF_COS: f64 = 0.866_025_405;
 /// Face-to-face steps of the projection walk before it gives up and asks
 /// the BVH.
 const WALK_STEPS: usize = 16;
@@ -87,6 +92,9 @@ pub(super) fn relax_and_project(st: &mut State) -> (u64, f64) {
 /// slide the vertex off the crest, and the edges over it would then cut the
 /// input (a crest without a feature edge has no line to keep it).
 fn ridge_direction(normals: &[DVec3]) -> Option<DVec3> {
+    if normals.len() < 2 {
+        return None;
+    }
     let mut worst = (RIDGE_NORMAL_COS, DVec3::ZERO);
     for (i, a) in normals.iter().enumerate() {
         for b in &normals[i + 1..] {
@@ -155,7 +163,15 @@ fn relax_targets(st: &State) -> Vec<DVec3> {
                         }
                         let c = sum / wsum;
                         let d = c - p;
-                        match ridge_direction(&normals[..if ridges { k } else { 0 }]) {
+                        // Every ring normal within 30° of the mean puts every
+                        // pair within 60°: no ridge, without the pairwise test.
+                        let ring = &normals[..if ridges { k } else { 0 }];
+                        let ring = if ring.iter().all(|a| a.dot(n) >= RIDGE_HALF_COS) {
+                            &[]
+                        } else {
+                            ring
+                        };
+                        match ridge_direction(ring) {
                             // On a rounded ridge: slide along it only.
                             Some(t) => p + t * t.dot(d),
                             None => p + d - n * n.dot(d),

@@ -77,8 +77,9 @@ pub(super) fn flip_edges(
                 if m.is_boundary_edge(e) {
                     return None;
                 }
-                let (before, after) = deviation_change(valence, target, quad(m, e.halfedge(0)));
-                (after <= before).then(|| (e.0, Some(flip_wanted(st, valence, target, e))))
+                let q = quad(m, e.halfedge(0));
+                let change = deviation_change(valence, target, q);
+                (change.1 <= change.0).then(|| (e.0, Some(flip_wanted_quad(st, e, q, change))))
             }),
         }
     };
@@ -98,7 +99,7 @@ pub(super) fn flip_edges(
             let q = quad(&st.mesh, e.halfedge(0));
             let wanted = match decided {
                 Some(w) if !q.iter().any(|v| dirty[v.idx()]) => w,
-                _ => flip_wanted(st, &valence, &target, e),
+                _ => flip_wanted_quad(st, e, q, deviation_change(&valence, &target, q)),
             };
             if !wanted {
                 continue;
@@ -140,12 +141,21 @@ pub(super) fn flip_edges(
 /// flip does not raise the valence deviation (and lowers it, or repairs a
 /// non-Delaunay pair), and it passes the geometric and topological guards.
 fn flip_wanted(st: &State, valence: &[i32], target: &[i32], e: EdgeId) -> bool {
+    // A deleted edge's half-edges lead nowhere: no quad to read.
+    if st.mesh.is_edge_deleted(e) {
+        return false;
+    }
+    let q = quad(&st.mesh, e.halfedge(0));
+    flip_wanted_quad(st, e, q, deviation_change(valence, target, q))
+}
+
+/// [`flip_wanted`] for a caller that already has `e`'s quad `q` and its
+/// [`deviation_change`] `(before, after)`.
+fn flip_wanted_quad(st: &State, e: EdgeId, q: [VertexId; 4], (before, after): (i32, i32)) -> bool {
     let m = &st.mesh;
     if m.is_edge_deleted(e) || st.line_of(e).is_some() || m.is_boundary_edge(e) {
         return false;
     }
-    let q = quad(m, e.halfedge(0));
-    let (before, after) = deviation_change(valence, target, q);
     if after > before {
         return false;
     }

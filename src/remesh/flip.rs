@@ -149,11 +149,12 @@ fn flip_wanted(st: &State, valence: &[i32], target: &[i32], e: EdgeId) -> bool {
     flip_wanted_quad(st, e, q, deviation_change(valence, target, q))
 }
 
-/// [`flip_wanted`] for a caller that already has `e`'s quad `q` and its
-/// [`deviation_change`] `(before, after)`.
+/// [`flip_wanted`] for a caller that already has live edge `e`'s quad `q`
+/// and its [`deviation_change`] `(before, after)`.
 fn flip_wanted_quad(st: &State, e: EdgeId, q: [VertexId; 4], (before, after): (i32, i32)) -> bool {
     let m = &st.mesh;
-    if m.is_edge_deleted(e) || st.line_of(e).is_some() || m.is_boundary_edge(e) {
+    debug_assert!(!m.is_edge_deleted(e), "no quad for a deleted edge");
+    if st.line_of(e).is_some() || m.is_boundary_edge(e) {
         return false;
     }
     if after > before {

@@ -91,8 +91,11 @@ pub(super) fn relax_and_project(st: &mut State) -> (u64, f64) {
 /// valley) that runs along their cross product. Relaxing across it would
 /// slide the vertex off the crest, and the edges over it would then cut the
 /// input (a crest without a feature edge has no line to keep it).
-fn ridge_direction(normals: &[DVec3]) -> Option<DVec3> {
-    if normals.len() < 2 {
+///
+/// When every normal lies within 30° of `mean` (the ring's unit normal),
+/// every pair lies within 60°: no ridge, without the pairwise test.
+fn ridge_direction(normals: &[DVec3], mean: DVec3) -> Option<DVec3> {
+    if normals.iter().all(|a| a.dot(mean) >= RIDGE_HALF_COS) {
         return None;
     }
     let mut worst = (RIDGE_NORMAL_COS, DVec3::ZERO);
@@ -163,15 +166,7 @@ fn relax_targets(st: &State) -> Vec<DVec3> {
                         }
                         let c = sum / wsum;
                         let d = c - p;
-                        // Every ring normal within 30° of the mean puts every
-                        // pair within 60°: no ridge, without the pairwise test.
-                        let ring = &normals[..if ridges { k } else { 0 }];
-                        let ring = if ring.iter().all(|a| a.dot(n) >= RIDGE_HALF_COS) {
-                            &[]
-                        } else {
-                            ring
-                        };
-                        match ridge_direction(ring) {
+                        match ridge_direction(&normals[..if ridges { k } else { 0 }], n) {
                             // On a rounded ridge: slide along it only.
                             Some(t) => p + t * t.dot(d),
                             None => p + d - n * n.dot(d),

@@ -62,6 +62,12 @@ pub struct FeatureOptions {
     /// A valence-2 feature vertex is a corner when its feature line turns by
     /// strictly more than this, degrees. Non-finite values mean the default.
     pub corner_angle_deg: f64,
+    /// Creases smaller than this, in model units, are dropped: a crease-only
+    /// feature component shorter in total, and a crease-only spur (a chain
+    /// from a free end to a junction) shorter than this. 0 keeps every
+    /// crease. Boundaries, label borders and non-manifold edges are never
+    /// dropped, nor are creases joined to them except as short spurs.
+    pub min_crease_length: f64,
 }
 
 impl Default for FeatureOptions {
@@ -70,6 +76,7 @@ impl Default for FeatureOptions {
             preserve_features: true,
             feature_angle_deg: DEFAULT_FEATURE_ANGLE_DEG,
             corner_angle_deg: DEFAULT_CORNER_ANGLE_DEG,
+            min_crease_length: 0.0,
         }
     }
 }
@@ -205,7 +212,14 @@ pub fn detect_features(mesh: &TriMesh, opts: &FeatureOptions) -> FeatureSet {
     let feature_angle = sanitize(opts.feature_angle_deg, DEFAULT_FEATURE_ANGLE_DEG);
     let corner_angle = sanitize(opts.corner_angle_deg, DEFAULT_CORNER_ANGLE_DEG);
 
-    let (edges, edge_flags) = classify_edges(mesh, opts.preserve_features, feature_angle);
+    let (mut edges, mut edge_flags) = classify_edges(mesh, opts.preserve_features, feature_angle);
+    if opts.min_crease_length > 0.0 {
+        let keep = small_creases_kept(mesh, &edges, &edge_flags, opts.min_crease_length);
+        let mut i = 0;
+        edges.retain(|_| (keep[i], i += 1).0);
+        let mut i = 0;
+        edge_flags.retain(|_| (keep[i], i += 1).0);
+    }
 
     // Feature adjacency in compressed rows, each row sorted by neighbour.
     let mut adj_offset = vec![0u32; nv + 1];
@@ -235,10 +249,12 @@ pub fn detect_features(mesh: &TriMesh, opts: &FeatureOptions) -> FeatureSet {
     let cos_corner = corner_angle.to_radians().cos();
     let mut kind = vec![VertexKind::Smooth; nv];
     let mut corners = Vec::new();
+    // Turn corners: (cosine of the turn, vertex), sharpest first below.
+    let mut turns: Vec<(f64, u32)> = Vec::new();
     for v in 0..nv {
         let row = &adj[adj_offset[v] as usize..adj_offset[v + 1] as usize];
-        let corner = match row.len() {
-            0 => continue,
+        match row.len() {
+            0 => {}
             2 => {
                 let p = mesh.positions[v];
                 let d_in = p - mesh.positions[row[0][0] as usize];
@@ -246,15 +262,33 @@ pub fn detect_features(mesh: &TriMesh, opts: &FeatureOptions) -> FeatureSet {
                 let l = d_in.length() * d_out.length();
                 // Coincident points give no direction; a zero-length edge is
                 // not evidence of a corner.
-                l > 0.0 && d_in.dot(d_out) / l < cos_corner
+                if l > 0.0 && d_in.dot(d_out) / l < cos_corner {
+                    turns.push((d_in.dot(d_out) / l, v as u32));
+                }
             }
-            _ => true,
-        };
-        if corner {
-            kind[v] = VertexKind::Corner;
-            corners.push(v as u32);
+            _ => {
+                kind[v] = VertexKind::Corner;
+                corners.push(v as u32);
+            }
         }
     }
+    turns.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    for (_, v) in turns {
+        let crease_only = |v: u32| {
+            adj[adj_offset[v as usize] as usize..adj_offset[v as usize + 1] as usize]
+                .iter()
+                .all(|&[_, e]| edge_flags[e as usize] == EdgeFlags::SHARP)
+        };
+        if opts.min_crease_length > 0.0
+            && crease_only(v)
+            && turn_is_wiggle(mesh, &adj_offset, &adj, &kind, v, opts.min_crease_length)
+        {
+            continue;
+        }
+        kind[v as usize] = VertexKind::Corner;
+        corners.push(v);
+    }
+    corners.sort_unstable();
 
     // Lines: walk from every corner along each unused feature edge to the
     // next corner, then pick up the corner-free loops that remain.
@@ -362,6 +396,184 @@ impl LineWalker<'_> {
         }
         verts
     }
+}
+
+/// Which feature edges survive the small-crease filter of
+/// [`FeatureOptions::min_crease_length`]. A crease smaller than that cannot
+/// be resampled by edges of the target length: keeping it pins corners a
+/// fraction of an edge apart, and every triangle around such a short edge is
+/// a sliver (scans at a 45° feature angle carry dozens of these noise
+/// fragments). Two rules, repeated until nothing changes:
+/// - a connected component of the feature graph made of creases only, whose
+///   total length is below the threshold, goes;
+/// - a crease-only chain between two vertices of feature degree other than 2
+///   (free ends and junctions, through degree-2 vertices), shorter than the
+///   threshold, goes: isolated fragments, spurs, and bridges between two
+///   junctions a fraction of an edge apart.
+fn small_creases_kept(
+    mesh: &TriMesh,
+    edges: &[[u32; 2]],
+    flags: &[EdgeFlags],
+    min_len: f64,
+) -> Vec<bool> {
+    let nv = mesh.positions.len();
+    let len = |e: usize| {
+        let [a, b] = edges[e];
+        (mesh.positions[a as usize] - mesh.positions[b as usize]).length()
+    };
+    let crease_only = |e: usize| flags[e] == EdgeFlags::SHARP;
+    let mut keep = vec![true; edges.len()];
+    // Vertex → incident edges (CSR), fixed; `keep` masks removed ones.
+    let mut offset = vec![0usize; nv + 1];
+    for &[a, b] in edges {
+        offset[a as usize + 1] += 1;
+        offset[b as usize + 1] += 1;
+    }
+    for i in 0..nv {
+        offset[i + 1] += offset[i];
+    }
+    let mut fill = offset[..nv].to_vec();
+    let mut inc = vec![0u32; 2 * edges.len()];
+    for (e, &[a, b]) in edges.iter().enumerate() {
+        for v in [a, b] {
+            inc[fill[v as usize]] = e as u32;
+            fill[v as usize] += 1;
+        }
+    }
+    fn live<'a>(
+        inc: &'a [u32],
+        offset: &[usize],
+        keep: &'a [bool],
+        v: u32,
+    ) -> impl Iterator<Item = u32> + 'a {
+        inc[offset[v as usize]..offset[v as usize + 1]]
+            .iter()
+            .copied()
+            .filter(move |&e| keep[e as usize])
+    }
+    loop {
+        let mut changed = false;
+        // Components: flood fill over kept edges.
+        let mut seen = vec![false; edges.len()];
+        let mut stack = Vec::new();
+        let mut comp = Vec::new();
+        for e0 in 0..edges.len() {
+            if !keep[e0] || seen[e0] {
+                continue;
+            }
+            comp.clear();
+            seen[e0] = true;
+            stack.push(e0 as u32);
+            while let Some(e) = stack.pop() {
+                comp.push(e);
+                for v in edges[e as usize] {
+                    for f in live(&inc, &offset, &keep, v) {
+                        if !seen[f as usize] {
+                            seen[f as usize] = true;
+                            stack.push(f);
+                        }
+                    }
+                }
+            }
+            let total: f64 = comp.iter().map(|&e| len(e as usize)).sum();
+            if total < min_len && comp.iter().all(|&e| crease_only(e as usize)) {
+                for &e in &comp {
+                    keep[e as usize] = false;
+                }
+                changed = true;
+            }
+        }
+        // Chains: from every vertex of feature degree other than 2, walk
+        // each kept edge through degree-2 vertices to the next such vertex.
+        for v0 in 0..nv as u32 {
+            let d0 = live(&inc, &offset, &keep, v0).count();
+            if d0 == 0 || d0 == 2 {
+                continue;
+            }
+            let starts: Vec<u32> = live(&inc, &offset, &keep, v0).collect();
+            for first in starts {
+                if !keep[first as usize] {
+                    continue;
+                }
+                let mut chain = Vec::new();
+                let (mut v, mut e) = (v0, first);
+                let mut total = 0.0;
+                let reached_end = loop {
+                    chain.push(e);
+                    total += len(e as usize);
+                    let [a, b] = edges[e as usize];
+                    v = if a == v { b } else { a };
+                    if total >= min_len {
+                        break false;
+                    }
+                    if v == v0 || live(&inc, &offset, &keep, v).count() != 2 {
+                        break true;
+                    }
+                    e = live(&inc, &offset, &keep, v).find(|&f| f != e).unwrap();
+                };
+                if reached_end && chain.iter().all(|&e| crease_only(e as usize)) {
+                    for &e in &chain {
+                        keep[e as usize] = false;
+                    }
+                    changed = true;
+                }
+            }
+        }
+        if !changed {
+            return keep;
+        }
+    }
+}
+
+/// Whether turn vertex `v` may be left off the corners: a corner already
+/// chosen lies within `reach` of it along the feature graph (walking both
+/// ways through degree-2 vertices), and the line's chord over that stretch
+/// passes within `reach / 3` of it (0.27·L at the default threshold; the
+/// bench's Duck keeps every turn that shapes its outline). Such a turn is a wiggle of the crease
+/// (scan noise), and keeping it next to the other corner would pin two
+/// output vertices a fraction of an edge apart, with slivers around them. A
+/// turn that stands out further than that is a shape the output must keep.
+fn turn_is_wiggle(
+    mesh: &TriMesh,
+    adj_offset: &[u32],
+    adj: &[[u32; 2]],
+    kind: &[VertexKind],
+    v: u32,
+    reach: f64,
+) -> bool {
+    let row = |u: u32| &adj[adj_offset[u as usize] as usize..adj_offset[u as usize + 1] as usize];
+    let p = mesh.positions[v as usize];
+    let mut near_corner = false;
+    let mut ends = [p; 2];
+    for (side, &[first, _]) in row(v).iter().enumerate().take(2) {
+        let (mut prev, mut cur) = (v, first);
+        let mut dist = p.distance(mesh.positions[cur as usize]);
+        loop {
+            if dist < reach && kind[cur as usize] == VertexKind::Corner {
+                near_corner = true;
+            }
+            let r = row(cur);
+            if dist >= reach || r.len() != 2 || cur == v || kind[cur as usize] == VertexKind::Corner
+            {
+                break;
+            }
+            let next = if r[0][0] == prev { r[1][0] } else { r[0][0] };
+            dist += mesh.positions[cur as usize].distance(mesh.positions[next as usize]);
+            prev = cur;
+            cur = next;
+        }
+        ends[side] = mesh.positions[cur as usize];
+    }
+    if !near_corner {
+        return false;
+    }
+    let (a, ab) = (ends[0], ends[1] - ends[0]);
+    let t = if ab.length_squared() > 0.0 {
+        ((p - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    p.distance(a + ab * t) < reach / 3.0
 }
 
 fn sanitize(deg: f64, default: f64) -> f64 {

@@ -83,6 +83,11 @@ struct RemeshArgs {
     /// Dihedral angle in degrees above which an edge is a sharp feature (default 45).
     #[arg(long)]
     feature_angle: Option<f64>,
+    /// Drop creases smaller than this many target lengths: isolated crease
+    /// fragments, short chains between free ends and junctions, and turns
+    /// that only wiggle next to another corner (default 0.8; 0 keeps all).
+    #[arg(long)]
+    min_crease_length: Option<f64>,
     /// Keep sharp creases and corners (default true; boundaries are always kept).
     #[arg(long, conflicts_with = "no_features")]
     preserve_features: Option<bool>,
@@ -285,6 +290,9 @@ fn remesh_command(a: RemeshArgs) -> Result<(), Failure> {
     }
     if let Some(d) = a.feature_angle {
         o.feature_angle = d;
+    }
+    if let Some(m) = a.min_crease_length {
+        o.min_crease_length = m;
     }
     if let Some(s) = a.sizing {
         o.sizing = s;

@@ -149,6 +149,8 @@ pub fn measure(
         preserve_features: options.preserve_features,
         feature_angle_deg: options.feature_angle,
         corner_angle_deg: options.corner_angle,
+        // Fidelity is measured against every input crease, as the bench does.
+        min_crease_length: 0.0,
     });
     let input_stats = stats::compute(
         input_tm,

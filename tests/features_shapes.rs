@@ -377,6 +377,7 @@ fn empty_mesh_and_non_finite_options_do_not_panic() {
             preserve_features: true,
             feature_angle_deg: f64::NAN,
             corner_angle_deg: f64::INFINITY,
+            min_crease_length: 0.0,
         },
     );
     // Non-finite angles fall back to the defaults.

@@ -12,6 +12,11 @@ pub const DEFAULT_ITERATIONS: u32 = 10;
 /// Default number of relaxation + projection steps per iteration.
 pub const DEFAULT_RELAXATION_STEPS: u32 = 1;
 /// Default gradation for adaptive sizing: h(v) ≤ h(u) + g·|uv|.
+/// Default [`RemeshOptions::min_crease_length`], in target lengths: 4/5,
+/// the shortest edge the band allows, so that every kept crease fragment
+/// can be one edge in the band.
+pub const DEFAULT_MIN_CREASE_LENGTH: f64 = 0.8;
+/// Default gradation of adaptive sizing.
 pub const DEFAULT_GRADATION: f64 = crate::sizing::DEFAULT_GRADATION;
 /// Default cap on the estimated output face count, a guard against a tiny
 /// target length exhausting memory.
@@ -67,6 +72,14 @@ pub struct RemeshOptions {
     pub feature_angle: f64,
     /// Turning angle in degrees above which a feature-line vertex is a corner.
     pub corner_angle: f64,
+    /// Creases smaller than this many target lengths are dropped (see
+    /// [`crate::features::FeatureOptions::min_crease_length`]): an isolated
+    /// crease fragment, or a crease spur ending in a free end, shorter than
+    /// it cannot be resampled by edges in the band and only pins corners a
+    /// fraction of an edge apart. Under adaptive sizing the unit is the
+    /// smallest allowed target. 0 keeps every crease. Default
+    /// [`DEFAULT_MIN_CREASE_LENGTH`].
+    pub min_crease_length: f64,
     /// Uniform or adaptive sizing. Default uniform.
     pub sizing: Sizing,
     /// Uniform sizing: shorten edges, down to 3/4·L, where the surface bends
@@ -109,6 +122,7 @@ impl Default for RemeshOptions {
             preserve_features: true,
             feature_angle: DEFAULT_FEATURE_ANGLE_DEG,
             corner_angle: DEFAULT_CORNER_ANGLE_DEG,
+            min_crease_length: DEFAULT_MIN_CREASE_LENGTH,
             sizing: Sizing::Uniform,
             refine_curved: true,
             tolerance: None,
@@ -208,6 +222,13 @@ impl RemeshOptions {
         }
         if !(self.corner_angle.is_finite() && (0.0..=180.0).contains(&self.corner_angle)) {
             return Err(invalid("corner_angle", "must be between 0 and 180 degrees"));
+        }
+        if !(self.min_crease_length.is_finite() && (0.0..=100.0).contains(&self.min_crease_length))
+        {
+            return Err(invalid(
+                "min_crease_length",
+                "must be between 0 and 100 target lengths",
+            ));
         }
         positive("tolerance", self.tolerance)?;
         positive("tolerance_ratio", self.tolerance_ratio)?;

@@ -119,12 +119,18 @@ impl State {
         let diag = tm.bbox_diagonal();
         let area = tm.area();
         let index = SurfaceIndex::from_trimesh(&tm);
+        // The unit of min_crease_length: L, or the smallest adaptive target.
+        let unit = match options.sizing {
+            Sizing::Uniform => uniform_target(&mesh, options, diag, area),
+            Sizing::Adaptive => adaptive_options(options, diag).min_edge_length,
+        };
         let features = detect_features(
             &tm,
             &FeatureOptions {
                 preserve_features: options.preserve_features,
                 feature_angle_deg: options.feature_angle,
                 corner_angle_deg: options.corner_angle,
+                min_crease_length: options.min_crease_length * unit,
             },
         );
         let nv = mesh.vertex_capacity();
@@ -157,18 +163,7 @@ impl State {
                 }
             }
             Sizing::Adaptive => {
-                let eps = options
-                    .tolerance
-                    .unwrap_or_else(|| options.tolerance_ratio.unwrap_or(0.001) * diag);
-                let mut so = SizingOptions::for_tolerance(eps, diag);
-                if let Some(a) = options.min_edge_length {
-                    so.min_edge_length = a;
-                }
-                if let Some(b) = options.max_edge_length {
-                    so.max_edge_length = b;
-                }
-                so.max_edge_length = so.max_edge_length.max(so.min_edge_length);
-                so.gradation = options.gradation;
+                let so = adaptive_options(options, diag);
                 let field = SizingField::from_mesh(
                     &tm,
                     &so,
@@ -200,7 +195,7 @@ impl State {
             };
         }
         if options.preserve_features {
-            anchor_tips(&mesh, &mut kind);
+            anchor_tips(&mesh, &size, &mut kind);
         }
         let fixed_turns = anchor_turns(&features, &size, &mut kind);
         let mut hint_face = vec![0u32; nv];
@@ -381,8 +376,12 @@ const TIP_ANGLE_DEFECT: f64 = 0.3;
 /// Keeps the tips of spikes (horns, ears, noses) where they are. An
 /// isotropic mesh at length L cuts across a tip unless a vertex sits on it,
 /// and that chord is where the distance to the input peaks; one fixed vertex
-/// there costs nothing in triangle shape.
-fn anchor_tips(mesh: &Mesh, kind: &mut [u32]) {
+/// there costs nothing in triangle shape. Candidates are taken by decreasing
+/// defect, and a candidate within 4/5 of its target length of a vertex
+/// already fixed is left free: two fixed vertices that close force a short
+/// edge and slivers around it (scan noise has clusters of such spikes).
+fn anchor_tips(mesh: &Mesh, size: &[f64], kind: &mut [u32]) {
+    let mut tips: Vec<(f64, u32)> = Vec::new();
     for v in mesh.vertices() {
         if kind[v.idx()] != SMOOTH || mesh.is_boundary_vertex(v) {
             continue;
@@ -394,9 +393,69 @@ fn anchor_tips(mesh: &Mesh, kind: &mut [u32]) {
             let b = mesh.position(mesh.to_vertex(mesh.next(h))) - p;
             sum += a.angle_between(b);
         }
-        if (std::f64::consts::TAU - sum).abs() > TIP_ANGLE_DEFECT {
-            kind[v.idx()] = CORNER;
+        let defect = (std::f64::consts::TAU - sum).abs();
+        if defect > TIP_ANGLE_DEFECT {
+            tips.push((defect, v.0));
         }
+    }
+    tips.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    let mut near = Neighborhood::new(mesh.vertex_capacity());
+    for (_, v) in tips {
+        let r = COLLAPSE_FACTOR * size[v as usize];
+        if !near.any_within(mesh, VertexId(v), r, |u| kind[u as usize] == CORNER) {
+            kind[v as usize] = CORNER;
+        }
+    }
+}
+
+/// Bounded breadth-first search over mesh edges around a vertex, for
+/// "is anything of this kind within this distance" queries.
+struct Neighborhood {
+    stamp: Vec<u32>,
+    round: u32,
+    queue: Vec<u32>,
+}
+
+impl Neighborhood {
+    /// Most vertices one query visits; past it the query answers from what
+    /// it saw (a far finer input than the target only loses the spacing).
+    const MAX_VISITS: usize = 4096;
+
+    fn new(n: usize) -> Self {
+        Self {
+            stamp: vec![0; n],
+            round: 0,
+            queue: Vec::new(),
+        }
+    }
+
+    /// Whether a vertex other than `v`, connected to it through vertices
+    /// within Euclidean distance `r` of it, satisfies `hit`.
+    fn any_within(&mut self, mesh: &Mesh, v: VertexId, r: f64, hit: impl Fn(u32) -> bool) -> bool {
+        self.round += 1;
+        let p = mesh.position(v);
+        self.queue.clear();
+        self.queue.push(v.0);
+        self.stamp[v.idx()] = self.round;
+        let mut i = 0;
+        while i < self.queue.len() && i < Self::MAX_VISITS {
+            let u = VertexId(self.queue[i]);
+            i += 1;
+            for h in mesh.outgoing(u) {
+                let w = mesh.to_vertex(h);
+                if self.stamp[w.idx()] == self.round {
+                    continue;
+                }
+                self.stamp[w.idx()] = self.round;
+                if mesh.position(w).distance(p) < r {
+                    if hit(w.0) {
+                        return true;
+                    }
+                    self.queue.push(w.0);
+                }
+            }
+        }
+        false
     }
 }
 
@@ -542,6 +601,24 @@ fn face_neighbors(tm: &TriMesh, start: &[u32], faces: &[u32]) -> Vec<[u32; 3]> {
             nb
         })
         .collect()
+}
+
+/// The sizing options of adaptive sizing: the tolerance's defaults with the
+/// caller's bounds and gradation.
+fn adaptive_options(options: &RemeshOptions, diag: f64) -> SizingOptions {
+    let eps = options
+        .tolerance
+        .unwrap_or_else(|| options.tolerance_ratio.unwrap_or(0.001) * diag);
+    let mut so = SizingOptions::for_tolerance(eps, diag);
+    if let Some(a) = options.min_edge_length {
+        so.min_edge_length = a;
+    }
+    if let Some(b) = options.max_edge_length {
+        so.max_edge_length = b;
+    }
+    so.max_edge_length = so.max_edge_length.max(so.min_edge_length);
+    so.gradation = options.gradation;
+    so
 }
 
 fn uniform_target(mesh: &Mesh, o: &RemeshOptions, diag: f64, area: f64) -> f64 {

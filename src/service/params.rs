@@ -14,7 +14,7 @@ use crate::remesh::{RemeshOptions, Sizing};
 use crate::sizing::{DEFAULT_MIN_EDGE_FACTOR, DEFAULT_RELATIVE_TOLERANCE};
 
 /// Every accepted parameter name.
-pub const PARAM_NAMES: [&str; 15] = [
+pub const PARAM_NAMES: [&str; 16] = [
     "target_edge_length",
     "target_edge_ratio",
     "target_faces",
@@ -22,6 +22,7 @@ pub const PARAM_NAMES: [&str; 15] = [
     "relaxation_steps",
     "preserve_features",
     "feature_angle",
+    "min_crease_length",
     "sizing",
     "refine_curved",
     "tolerance",
@@ -50,6 +51,9 @@ pub struct JobParams {
     pub preserve_features: bool,
     /// Dihedral angle in degrees above which an edge is sharp.
     pub feature_angle: f64,
+    /// Creases smaller than this many target lengths are dropped.
+    #[serde(default = "default_min_crease_length")]
+    pub min_crease_length: f64,
     /// `uniform` or `adaptive`.
     pub sizing: Sizing,
     /// Uniform sizing: shorten edges down to 3/4·L on tight curves.
@@ -80,6 +84,7 @@ impl Default for JobParams {
             relaxation_steps: o.relaxation_steps,
             preserve_features: o.preserve_features,
             feature_angle: o.feature_angle,
+            min_crease_length: o.min_crease_length,
             sizing: o.sizing,
             refine_curved: o.refine_curved,
             tolerance: None,
@@ -90,6 +95,10 @@ impl Default for JobParams {
             output_format: None,
         }
     }
+}
+
+fn default_min_crease_length() -> f64 {
+    RemeshOptions::default().min_crease_length
 }
 
 fn default_refine_curved() -> bool {
@@ -151,6 +160,7 @@ impl JobParams {
                 "relaxation_steps" => p.relaxation_steps = typed(k, v)?,
                 "preserve_features" => p.preserve_features = typed(k, v)?,
                 "feature_angle" => p.feature_angle = typed(k, v)?,
+                "min_crease_length" => p.min_crease_length = typed(k, v)?,
                 "sizing" => p.sizing = typed(k, v)?,
                 "refine_curved" => p.refine_curved = typed(k, v)?,
                 "tolerance" => p.tolerance = Some(typed(k, v)?),
@@ -183,6 +193,7 @@ impl JobParams {
             relaxation_steps: self.relaxation_steps,
             preserve_features: self.preserve_features,
             feature_angle: self.feature_angle,
+            min_crease_length: self.min_crease_length,
             sizing: self.sizing,
             refine_curved: self.refine_curved,
             tolerance: self.tolerance,

@@ -197,7 +197,7 @@ impl State {
         if options.preserve_features {
             anchor_tips(&mesh, &size, &mut kind);
         }
-        let fixed_turns = anchor_turns(&features, &size, &mut kind);
+        let fixed_turns = anchor_turns(&mesh, &features, &size, &mut kind);
         let mut hint_face = vec![0u32; nv];
         for f in mesh.faces() {
             for v in mesh.face_vertices(f) {
@@ -480,28 +480,49 @@ const TURN_SAG: f64 = crate::stats::ON_LINE_TOLERANCE;
 /// its input position. Because the chord's end points are capped by the
 /// segment lengths, a finely tessellated curve never pins its vertices: the
 /// rule only fires where the input's segments are long enough for the
-/// output to cut the turn. Candidates are taken by decreasing sag and a
-/// vertex closer than 4/5·L (the collapse length) along its line to a kept
-/// vertex or a corner is left free, so no feature edge is forced below the
+/// output to cut the turn. Candidates are taken by decreasing sag over all
+/// lines, and a vertex closer than 4/5·L (the collapse length) along its
+/// line to a kept vertex or a corner, or in space to a corner or kept tip
+/// off its line, is left free, so no feature edge is forced below the
 /// collapse length by two fixed ends. Returns the number of vertices kept.
-fn anchor_turns(features: &FeatureSet, size: &[f64], kind: &mut [u32]) -> u64 {
+fn anchor_turns(mesh: &Mesh, features: &FeatureSet, size: &[f64], kind: &mut [u32]) -> u64 {
     use std::collections::BTreeSet;
-    let mut count = 0;
+    /// Per line: arc length at each vertex, total length, whether the loop
+    /// start is free, and the arc positions already fixed.
+    struct LineArc {
+        arc: Vec<f64>,
+        total: f64,
+        closed: bool,
+        fixed: BTreeSet<u64>,
+    }
+    let mut arcs: Vec<LineArc> = Vec::with_capacity(features.lines().len());
+    // (sag / L, line, index on the line), over every line.
+    let mut candidates: Vec<(f64, u32, u32)> = Vec::new();
     for (id, line) in features.lines().iter().enumerate() {
         let pts = features.line_points(id as u32);
         let n = line.vertices.len();
-        if n < 3 {
-            continue;
-        }
-        let closed = line.is_closed();
         let mut arc = vec![0.0f64; n];
         for i in 1..n {
             arc[i] = arc[i - 1] + pts[i].distance(pts[i - 1]);
         }
         let total = arc[n - 1];
+        let closed = line.is_closed();
         // Interior vertices, plus the loop's start when the loop has no corner.
         let start_free = closed && kind[line.vertices[0] as usize] == id as u32;
-        let mut candidates: Vec<(f64, usize)> = Vec::new();
+        let mut fixed: BTreeSet<u64> = BTreeSet::new();
+        if !start_free {
+            fixed.insert(0f64.to_bits());
+            fixed.insert(total.to_bits());
+        }
+        arcs.push(LineArc {
+            arc,
+            total,
+            closed,
+            fixed,
+        });
+        if n < 3 {
+            continue;
+        }
         for i in (if start_free { 0 } else { 1 })..n - 1 {
             let v = line.vertices[i] as usize;
             if kind[v] != id as u32 {
@@ -520,38 +541,49 @@ fn anchor_turns(features: &FeatureSet, size: &[f64], kind: &mut [u32]) -> u64 {
             let ab = b - a;
             let sag = (p - a).cross(ab).length() / ab.length();
             if sag > TURN_SAG * size[v] {
-                candidates.push((sag / size[v], i));
+                candidates.push((sag / size[v], id as u32, i as u32));
             }
         }
-        if candidates.is_empty() {
-            continue;
+    }
+    // Largest sag first over all lines, so a shallow turn never displaces a
+    // deep one on a neighbouring line.
+    candidates.sort_by(|x, y| y.0.total_cmp(&x.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
+    let near = |la: &LineArc, lo: f64, hi: f64| {
+        // `+ 0.0` turns −0 into +0 so the bits order like the values;
+        // `range` panics on an empty interval (NaN from non-finite input).
+        let (lo, hi) = (lo.max(0.0) + 0.0, hi.min(la.total));
+        lo <= hi && la.fixed.range(lo.to_bits()..=hi.to_bits()).next().is_some()
+    };
+    let mut nbhd = Neighborhood::new(mesh.vertex_capacity());
+    let mut count = 0;
+    for (_, id, i) in candidates {
+        let line = &features.lines()[id as usize];
+        let la = &arcs[id as usize];
+        let v = line.vertices[i as usize] as usize;
+        let (s, r) = (la.arc[i as usize], COLLAPSE_FACTOR * size[v]);
+        let mut taken = near(la, s - r, s + r);
+        if la.closed {
+            taken |= s - r < 0.0 && near(la, s - r + la.total, la.total);
+            taken |= s + r > la.total && near(la, 0.0, s + r - la.total);
         }
-        candidates.sort_by(|x, y| y.0.total_cmp(&x.0).then(x.1.cmp(&y.1)));
-        // Arc positions of fixed vertices (non-negative floats order like their bits).
-        let mut fixed: BTreeSet<u64> = BTreeSet::new();
-        if !start_free {
-            fixed.insert(0f64.to_bits());
-            fixed.insert(total.to_bits());
-        }
-        let near = |fixed: &BTreeSet<u64>, lo: f64, hi: f64| {
-            // `+ 0.0` turns −0 into +0 so the bits order like the values;
-            // `range` panics on an empty interval (NaN from non-finite input).
-            let (lo, hi) = (lo.max(0.0) + 0.0, hi.min(total));
-            lo <= hi && fixed.range(lo.to_bits()..=hi.to_bits()).next().is_some()
+        // Nor within that distance in space of a corner or a kept tip off
+        // this line: two fixed vertices that close force a short edge
+        // between them (noisy creases end and cross next to each other).
+        // Another line's kept turns do not count: on fandisk two creases
+        // turn 0.57·L apart, and leaving one turn free narrows the
+        // triangle in its feature sector below what the sector forces.
+        let (first, last) = (line.vertices[0], line.vertices[line.vertices.len() - 1]);
+        let other_line = |u: u32| {
+            kind[u as usize] == CORNER
+                && u != first
+                && u != last
+                && !matches!(features.vertex_kind(u), VertexKind::Line(_))
         };
-        for (_, i) in candidates {
-            let v = line.vertices[i] as usize;
-            let (s, r) = (arc[i], COLLAPSE_FACTOR * size[v]);
-            let mut taken = near(&fixed, s - r, s + r);
-            if closed {
-                taken |= s - r < 0.0 && near(&fixed, s - r + total, total);
-                taken |= s + r > total && near(&fixed, 0.0, s + r - total);
-            }
-            if !taken {
-                fixed.insert(s.to_bits());
-                kind[v] = CORNER;
-                count += 1;
-            }
+        taken = taken || nbhd.any_within(mesh, VertexId(v as u32), r, other_line);
+        if !taken {
+            arcs[id as usize].fixed.insert(s.to_bits());
+            kind[v] = CORNER;
+            count += 1;
         }
     }
     count

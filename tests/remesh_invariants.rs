@@ -223,6 +223,13 @@ fn invalid_options_name_their_field() {
             RemeshOptions::default().with_feature_angle(200.0),
             "feature_angle",
         ),
+        (
+            RemeshOptions {
+                min_crease_length: f64::NAN,
+                ..Default::default()
+            },
+            "min_crease_length",
+        ),
     ];
     for (o, field) in cases {
         match remesh(&input, &o, &mut NoObserver) {

@@ -134,6 +134,8 @@ fn bad_parameters_name_their_field() {
         (json!({"split": false}), "split"),
         (json!({"gradation": -1.0}), "gradation"),
         (json!({"feature_angle": 270}), "feature_angle"),
+        (json!({"min_crease_length": -0.5}), "min_crease_length"),
+        (json!({"min_crease_length": "short"}), "min_crease_length"),
         (json!({"target_edge_length": 0}), "target_edge_length"),
         (
             json!({"target_edge_length": 0.1, "target_faces": 10}),

@@ -119,11 +119,10 @@ impl State {
         let diag = tm.bbox_diagonal();
         let area = tm.area();
         let index = SurfaceIndex::from_trimesh(&tm);
+        let uniform_l =
+            (options.sizing == Sizing::Uniform).then(|| uniform_target(&mesh, options, diag, area));
         // The unit of min_crease_length: L, or the smallest adaptive target.
-        let unit = match options.sizing {
-            Sizing::Uniform => uniform_target(&mesh, options, diag, area),
-            Sizing::Adaptive => adaptive_options(options, diag).min_edge_length,
-        };
+        let unit = uniform_l.unwrap_or_else(|| adaptive_options(options, diag).min_edge_length);
         let features = detect_features(
             &tm,
             &FeatureOptions {
@@ -138,7 +137,7 @@ impl State {
         let mut uniform = None;
         let (sizing, size) = match options.sizing {
             Sizing::Uniform => {
-                let l = uniform_target(&mesh, options, diag, area);
+                let l = uniform_l.expect("computed above for uniform sizing");
                 check_estimate(area, l, options.max_output_faces)?;
                 uniform = Some(l);
                 if options.refine_curved {

@@ -16,6 +16,11 @@
 //! [`FeatureLine`]s; each line carries its own segment tree so that a feature
 //! vertex is projected back onto *its* line, never onto a neighbouring crease.
 //!
+//! With [`FeatureOptions::min_crease_length`] set (the remesher sets it from
+//! its target), creases too small to resample are dropped first and turns
+//! that only wiggle next to another corner are not made corners: the noise
+//! creases of scans would otherwise pin corners a fraction of an edge apart.
+//!
 //! [`polyline_distance`] measures how well an output mesh keeps a set of input
 //! edges, the `features` / `boundary` metric of `bench/quality.py`.
 

@@ -68,10 +68,12 @@ pub struct FeatureOptions {
     /// strictly more than this, degrees. Non-finite values mean the default.
     pub corner_angle_deg: f64,
     /// Creases smaller than this, in model units, are dropped: a crease-only
-    /// feature component shorter in total, and a crease-only spur (a chain
-    /// from a free end to a junction) shorter than this. 0 keeps every
+    /// feature component shorter in total, and a crease-only chain shorter
+    /// than this between two vertices where lines end or meet; and a turn
+    /// that only wiggles within this distance of another corner is not a
+    /// corner (see `small_creases_kept` and `turn_is_wiggle`). 0 keeps every
     /// crease. Boundaries, label borders and non-manifold edges are never
-    /// dropped, nor are creases joined to them except as short spurs.
+    /// dropped.
     pub min_crease_length: f64,
 }
 
@@ -220,35 +222,13 @@ pub fn detect_features(mesh: &TriMesh, opts: &FeatureOptions) -> FeatureSet {
     let (mut edges, mut edge_flags) = classify_edges(mesh, opts.preserve_features, feature_angle);
     if opts.min_crease_length > 0.0 {
         let keep = small_creases_kept(mesh, &edges, &edge_flags, opts.min_crease_length);
-        let mut i = 0;
-        edges.retain(|_| (keep[i], i += 1).0);
-        let mut i = 0;
-        edge_flags.retain(|_| (keep[i], i += 1).0);
+        (edges, edge_flags) = (edges.iter().zip(&edge_flags).zip(&keep))
+            .filter(|(_, &k)| k)
+            .map(|((&e, &f), _)| (e, f))
+            .unzip();
     }
 
-    // Feature adjacency in compressed rows, each row sorted by neighbour.
-    let mut adj_offset = vec![0u32; nv + 1];
-    for &[a, b] in &edges {
-        adj_offset[a as usize + 1] += 1;
-        adj_offset[b as usize + 1] += 1;
-    }
-    for i in 0..nv {
-        adj_offset[i + 1] += adj_offset[i];
-    }
-    let mut fill: Vec<u32> = adj_offset[..nv].to_vec();
-    let mut adj = vec![[0u32; 2]; 2 * edges.len()];
-    for (e, &[a, b]) in edges.iter().enumerate() {
-        adj[fill[a as usize] as usize] = [b, e as u32];
-        fill[a as usize] += 1;
-        adj[fill[b as usize] as usize] = [a, e as u32];
-        fill[b as usize] += 1;
-    }
-    for v in 0..nv {
-        let row = &mut adj[adj_offset[v] as usize..adj_offset[v + 1] as usize];
-        if row.len() > 1 {
-            row.sort_unstable();
-        }
-    }
+    let (adj_offset, adj) = feature_adjacency(nv, &edges);
 
     // Corners: valence other than 2, or a turn sharper than the corner angle.
     let cos_corner = corner_angle.to_radians().cos();
@@ -267,8 +247,9 @@ pub fn detect_features(mesh: &TriMesh, opts: &FeatureOptions) -> FeatureSet {
                 let l = d_in.length() * d_out.length();
                 // Coincident points give no direction; a zero-length edge is
                 // not evidence of a corner.
-                if l > 0.0 && d_in.dot(d_out) / l < cos_corner {
-                    turns.push((d_in.dot(d_out) / l, v as u32));
+                let cos_turn = d_in.dot(d_out) / l;
+                if l > 0.0 && cos_turn < cos_corner {
+                    turns.push((cos_turn, v as u32));
                 }
             }
             _ => {
@@ -278,12 +259,12 @@ pub fn detect_features(mesh: &TriMesh, opts: &FeatureOptions) -> FeatureSet {
         }
     }
     turns.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let crease_only = |v: u32| {
+        adj[adj_offset[v as usize] as usize..adj_offset[v as usize + 1] as usize]
+            .iter()
+            .all(|&[_, e]| edge_flags[e as usize] == EdgeFlags::SHARP)
+    };
     for (_, v) in turns {
-        let crease_only = |v: u32| {
-            adj[adj_offset[v as usize] as usize..adj_offset[v as usize + 1] as usize]
-                .iter()
-                .all(|&[_, e]| edge_flags[e as usize] == EdgeFlags::SHARP)
-        };
         if opts.min_crease_length > 0.0
             && crease_only(v)
             && turn_is_wiggle(mesh, &adj_offset, &adj, &kind, v, opts.min_crease_length)
@@ -403,6 +384,35 @@ impl LineWalker<'_> {
     }
 }
 
+/// Feature adjacency of `edges` over `nv` vertices in compressed rows:
+/// row `v` is `adj[offset[v]..offset[v + 1]]`, (neighbour, edge id) pairs
+/// sorted by neighbour.
+fn feature_adjacency(nv: usize, edges: &[[u32; 2]]) -> (Vec<u32>, Vec<[u32; 2]>) {
+    let mut offset = vec![0u32; nv + 1];
+    for &[a, b] in edges {
+        offset[a as usize + 1] += 1;
+        offset[b as usize + 1] += 1;
+    }
+    for i in 0..nv {
+        offset[i + 1] += offset[i];
+    }
+    let mut fill: Vec<u32> = offset[..nv].to_vec();
+    let mut adj = vec![[0u32; 2]; 2 * edges.len()];
+    for (e, &[a, b]) in edges.iter().enumerate() {
+        adj[fill[a as usize] as usize] = [b, e as u32];
+        fill[a as usize] += 1;
+        adj[fill[b as usize] as usize] = [a, e as u32];
+        fill[b as usize] += 1;
+    }
+    for v in 0..nv {
+        let row = &mut adj[offset[v] as usize..offset[v + 1] as usize];
+        if row.len() > 1 {
+            row.sort_unstable();
+        }
+    }
+    (offset, adj)
+}
+
 /// Which feature edges survive the small-crease filter of
 /// [`FeatureOptions::min_crease_length`]. A crease smaller than that cannot
 /// be resampled by edges of the target length: keeping it pins corners a
@@ -428,32 +438,17 @@ fn small_creases_kept(
     };
     let crease_only = |e: usize| flags[e] == EdgeFlags::SHARP;
     let mut keep = vec![true; edges.len()];
-    // Vertex → incident edges (CSR), fixed; `keep` masks removed ones.
-    let mut offset = vec![0usize; nv + 1];
-    for &[a, b] in edges {
-        offset[a as usize + 1] += 1;
-        offset[b as usize + 1] += 1;
-    }
-    for i in 0..nv {
-        offset[i + 1] += offset[i];
-    }
-    let mut fill = offset[..nv].to_vec();
-    let mut inc = vec![0u32; 2 * edges.len()];
-    for (e, &[a, b]) in edges.iter().enumerate() {
-        for v in [a, b] {
-            inc[fill[v as usize]] = e as u32;
-            fill[v as usize] += 1;
-        }
-    }
+    // Incident edges of each vertex, fixed; `keep` masks the removed ones.
+    let (offset, adj) = feature_adjacency(nv, edges);
     fn live<'a>(
-        inc: &'a [u32],
-        offset: &[usize],
+        offset: &[u32],
+        adj: &'a [[u32; 2]],
         keep: &'a [bool],
         v: u32,
     ) -> impl Iterator<Item = u32> + 'a {
-        inc[offset[v as usize]..offset[v as usize + 1]]
+        adj[offset[v as usize] as usize..offset[v as usize + 1] as usize]
             .iter()
-            .copied()
+            .map(|&[_, e]| e)
             .filter(move |&e| keep[e as usize])
     }
     loop {
@@ -472,7 +467,7 @@ fn small_creases_kept(
             while let Some(e) = stack.pop() {
                 comp.push(e);
                 for v in edges[e as usize] {
-                    for f in live(&inc, &offset, &keep, v) {
+                    for f in live(&offset, &adj, &keep, v) {
                         if !seen[f as usize] {
                             seen[f as usize] = true;
                             stack.push(f);
@@ -491,11 +486,11 @@ fn small_creases_kept(
         // Chains: from every vertex of feature degree other than 2, walk
         // each kept edge through degree-2 vertices to the next such vertex.
         for v0 in 0..nv as u32 {
-            let d0 = live(&inc, &offset, &keep, v0).count();
+            let d0 = live(&offset, &adj, &keep, v0).count();
             if d0 == 0 || d0 == 2 {
                 continue;
             }
-            let starts: Vec<u32> = live(&inc, &offset, &keep, v0).collect();
+            let starts: Vec<u32> = live(&offset, &adj, &keep, v0).collect();
             for first in starts {
                 if !keep[first as usize] {
                     continue;
@@ -511,10 +506,10 @@ fn small_creases_kept(
                     if total >= min_len {
                         break false;
                     }
-                    if v == v0 || live(&inc, &offset, &keep, v).count() != 2 {
+                    if v == v0 || live(&offset, &adj, &keep, v).count() != 2 {
                         break true;
                     }
-                    e = live(&inc, &offset, &keep, v).find(|&f| f != e).unwrap();
+                    e = live(&offset, &adj, &keep, v).find(|&f| f != e).unwrap();
                 };
                 if reached_end && chain.iter().all(|&e| crease_only(e as usize)) {
                     for &e in &chain {
@@ -534,8 +529,8 @@ fn small_creases_kept(
 /// chosen lies within `reach` of it along the feature graph (walking both
 /// ways through degree-2 vertices), and the line's chord over that stretch
 /// passes within `reach / 3` of it (0.27·L at the default threshold; the
-/// bench's Duck keeps every turn that shapes its outline). Such a turn is a wiggle of the crease
-/// (scan noise), and keeping it next to the other corner would pin two
+/// bench's Duck keeps every turn that shapes its outline). Such a turn is a
+/// wiggle of the crease (scan noise), and keeping it next to the other corner would pin two
 /// output vertices a fraction of an edge apart, with slivers around them. A
 /// turn that stands out further than that is a shape the output must keep.
 fn turn_is_wiggle(

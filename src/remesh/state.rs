@@ -193,10 +193,11 @@ impl State {
                 }
             };
         }
+        let mut nbhd = Neighborhood::new(nv);
         if options.preserve_features {
-            anchor_tips(&mesh, &size, &mut kind);
+            anchor_tips(&mesh, &size, &mut nbhd, &mut kind);
         }
-        let fixed_turns = anchor_turns(&mesh, &features, &size, &mut kind);
+        let fixed_turns = anchor_turns(&mesh, &features, &size, &mut nbhd, &mut kind);
         let mut hint_face = vec![0u32; nv];
         for f in mesh.faces() {
             for v in mesh.face_vertices(f) {
@@ -379,7 +380,7 @@ const TIP_ANGLE_DEFECT: f64 = 0.3;
 /// defect, and a candidate within 4/5 of its target length of a vertex
 /// already fixed is left free: two fixed vertices that close force a short
 /// edge and slivers around it (scan noise has clusters of such spikes).
-fn anchor_tips(mesh: &Mesh, size: &[f64], kind: &mut [u32]) {
+fn anchor_tips(mesh: &Mesh, size: &[f64], near: &mut Neighborhood, kind: &mut [u32]) {
     let mut tips: Vec<(f64, u32)> = Vec::new();
     for v in mesh.vertices() {
         if kind[v.idx()] != SMOOTH || mesh.is_boundary_vertex(v) {
@@ -398,7 +399,6 @@ fn anchor_tips(mesh: &Mesh, size: &[f64], kind: &mut [u32]) {
         }
     }
     tips.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-    let mut near = Neighborhood::new(mesh.vertex_capacity());
     for (_, v) in tips {
         let r = COLLAPSE_FACTOR * size[v as usize];
         if !near.any_within(mesh, VertexId(v), r, |u| kind[u as usize] == CORNER) {
@@ -410,6 +410,9 @@ fn anchor_tips(mesh: &Mesh, size: &[f64], kind: &mut [u32]) {
 /// Bounded breadth-first search over mesh edges around a vertex, for
 /// "is anything of this kind within this distance" queries.
 struct Neighborhood {
+    /// Vertex count; `stamp` is allocated at the first query, so a mesh
+    /// without tips or turn candidates pays nothing.
+    n: usize,
     stamp: Vec<u32>,
     round: u32,
     queue: Vec<u32>,
@@ -422,7 +425,8 @@ impl Neighborhood {
 
     fn new(n: usize) -> Self {
         Self {
-            stamp: vec![0; n],
+            n,
+            stamp: Vec::new(),
             round: 0,
             queue: Vec::new(),
         }
@@ -431,6 +435,9 @@ impl Neighborhood {
     /// Whether a vertex other than `v`, connected to it through vertices
     /// within Euclidean distance `r` of it, satisfies `hit`.
     fn any_within(&mut self, mesh: &Mesh, v: VertexId, r: f64, hit: impl Fn(u32) -> bool) -> bool {
+        if self.stamp.is_empty() {
+            self.stamp = vec![0; self.n];
+        }
         self.round += 1;
         let p = mesh.position(v);
         self.queue.clear();
@@ -484,7 +491,13 @@ const TURN_SAG: f64 = crate::stats::ON_LINE_TOLERANCE;
 /// line to a kept vertex or a corner, or in space to a corner or kept tip
 /// off its line, is left free, so no feature edge is forced below the
 /// collapse length by two fixed ends. Returns the number of vertices kept.
-fn anchor_turns(mesh: &Mesh, features: &FeatureSet, size: &[f64], kind: &mut [u32]) -> u64 {
+fn anchor_turns(
+    mesh: &Mesh,
+    features: &FeatureSet,
+    size: &[f64],
+    nbhd: &mut Neighborhood,
+    kind: &mut [u32],
+) -> u64 {
     use std::collections::BTreeSet;
     /// Per line: arc length at each vertex, total length, whether the loop
     /// start is free, and the arc positions already fixed.
@@ -553,7 +566,6 @@ fn anchor_turns(mesh: &Mesh, features: &FeatureSet, size: &[f64], kind: &mut [u3
         let (lo, hi) = (lo.max(0.0) + 0.0, hi.min(la.total));
         lo <= hi && la.fixed.range(lo.to_bits()..=hi.to_bits()).next().is_some()
     };
-    let mut nbhd = Neighborhood::new(mesh.vertex_capacity());
     let mut count = 0;
     for (_, id, i) in candidates {
         let line = &features.lines()[id as usize];
@@ -572,13 +584,13 @@ fn anchor_turns(mesh: &Mesh, features: &FeatureSet, size: &[f64], kind: &mut [u3
         // turn 0.57·L apart, and leaving one turn free narrows the
         // triangle in its feature sector below what the sector forces.
         let (first, last) = (line.vertices[0], line.vertices[line.vertices.len() - 1]);
-        let other_line = |u: u32| {
+        let fixed_off_line = |u: u32| {
             kind[u as usize] == CORNER
                 && u != first
                 && u != last
                 && !matches!(features.vertex_kind(u), VertexKind::Line(_))
         };
-        taken = taken || nbhd.any_within(mesh, VertexId(v as u32), r, other_line);
+        taken = taken || nbhd.any_within(mesh, VertexId(v as u32), r, fixed_off_line);
         if !taken {
             arcs[id as usize].fixed.insert(s.to_bits());
             kind[v] = CORNER;

@@ -75,6 +75,14 @@ pub struct FeatureOptions {
     /// crease. Boundaries, label borders and non-manifold edges are never
     /// dropped.
     pub min_crease_length: f64,
+    /// A crease-only chain between two junctions (vertices where three or
+    /// more feature edges meet) is dropped only below the smaller of this
+    /// and `min_crease_length`: such a bridge is an edge of a real network
+    /// (a box's short edge between two corners), and dropping it costs more
+    /// shape than dropping a fragment or a spur. Default infinite (the
+    /// bridge threshold is `min_crease_length`); the remesher sets it to the
+    /// shortest edge of its band, 4/5 of the target.
+    pub min_bridge_length: f64,
 }
 
 impl Default for FeatureOptions {
@@ -84,6 +92,7 @@ impl Default for FeatureOptions {
             feature_angle_deg: DEFAULT_FEATURE_ANGLE_DEG,
             corner_angle_deg: DEFAULT_CORNER_ANGLE_DEG,
             min_crease_length: 0.0,
+            min_bridge_length: f64::INFINITY,
         }
     }
 }
@@ -221,7 +230,8 @@ pub fn detect_features(mesh: &TriMesh, opts: &FeatureOptions) -> FeatureSet {
 
     let (mut edges, mut edge_flags) = classify_edges(mesh, opts.preserve_features, feature_angle);
     if opts.min_crease_length > 0.0 {
-        let keep = small_creases_kept(mesh, &edges, &edge_flags, opts.min_crease_length);
+        let bridge = opts.min_bridge_length.min(opts.min_crease_length);
+        let keep = small_creases_kept(mesh, &edges, &edge_flags, opts.min_crease_length, bridge);
         (edges, edge_flags) = (edges.iter().zip(&edge_flags).zip(&keep))
             .filter(|(_, &k)| k)
             .map(|((&e, &f), _)| (e, f))
@@ -423,13 +433,14 @@ fn feature_adjacency(nv: usize, edges: &[[u32; 2]]) -> (Vec<u32>, Vec<[u32; 2]>)
 ///   total length is below the threshold, goes;
 /// - a crease-only chain between two vertices of feature degree other than 2
 ///   (free ends and junctions, through degree-2 vertices), shorter than the
-///   threshold, goes: isolated fragments, spurs, and bridges between two
-///   junctions a fraction of an edge apart.
+///   threshold, goes: isolated fragments and spurs; a bridge between two
+///   junctions goes only below [`FeatureOptions::min_bridge_length`].
 fn small_creases_kept(
     mesh: &TriMesh,
     edges: &[[u32; 2]],
     flags: &[EdgeFlags],
     min_len: f64,
+    min_bridge: f64,
 ) -> Vec<bool> {
     let nv = mesh.positions.len();
     let len = |e: usize| {
@@ -511,7 +522,10 @@ fn small_creases_kept(
                     }
                     e = live(&offset, &adj, &keep, v).find(|&f| f != e).unwrap();
                 };
-                if reached_end && chain.iter().all(|&e| crease_only(e as usize)) {
+                // A bridge between two junctions has its own threshold.
+                let bridge = d0 > 2 && live(&offset, &adj, &keep, v).count() > 2;
+                let short = !bridge || total < min_bridge;
+                if reached_end && short && chain.iter().all(|&e| crease_only(e as usize)) {
                     for &e in &chain {
                         keep[e as usize] = false;
                     }
@@ -528,7 +542,7 @@ fn small_creases_kept(
 /// Whether turn vertex `v` may be left off the corners: a corner already
 /// chosen lies within `reach` of it along the feature graph (walking both
 /// ways through degree-2 vertices), and the line's chord over that stretch
-/// passes within `reach / 3` of it (0.27·L at the default threshold; the
+/// passes within `reach / 3` of it (0.5·L at the default threshold; the
 /// bench's Duck keeps every turn that shapes its outline). Such a turn is a
 /// wiggle of the crease (scan noise), and keeping it next to the other corner would pin two
 /// output vertices a fraction of an edge apart, with slivers around them. A

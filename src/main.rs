@@ -85,7 +85,7 @@ struct RemeshArgs {
     feature_angle: Option<f64>,
     /// Drop creases smaller than this many target lengths: isolated crease
     /// fragments, short chains between free ends and junctions, and turns
-    /// that only wiggle next to another corner (default 0.8; 0 keeps all).
+    /// that only wiggle next to another corner (default 1.5; 0 keeps all).
     #[arg(long)]
     min_crease_length: Option<f64>,
     /// Keep sharp creases and corners (default true; boundaries are always kept).

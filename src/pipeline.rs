@@ -151,6 +151,7 @@ pub fn measure(
         corner_angle_deg: options.corner_angle,
         // Fidelity is measured against every input crease, as the bench does.
         min_crease_length: 0.0,
+        ..FeatureOptions::default()
     });
     let input_stats = stats::compute(
         input_tm,

@@ -378,6 +378,7 @@ fn empty_mesh_and_non_finite_options_do_not_panic() {
             feature_angle_deg: f64::NAN,
             corner_angle_deg: f64::INFINITY,
             min_crease_length: 0.0,
+            min_bridge_length: f64::NAN,
         },
     );
     // Non-finite angles fall back to the defaults.

@@ -83,15 +83,58 @@ fn boundaries_are_never_dropped_however_short() {
 #[test]
 fn fandisk_keeps_every_crease_and_corner_at_the_bench_length() {
     // A CAD part: its creases are long lines, so the filter at the bench's
-    // L (0.75 % of the diagonal) and its default 0.8·L changes nothing.
+    // L (0.75 % of the diagonal) and the remesher's defaults (1.5·L, bridges
+    // 0.8·L) changes nothing.
     let m = data_support::plain_obj("fandisk.obj");
     let l = 0.0075 * m.bbox_diagonal();
     let all = detect_features(&m, &opts(0.0));
-    let filtered = detect_features(&m, &opts(0.8 * l));
+    let d = RemeshOptions::default().min_crease_length;
+    let filtered = detect_features(
+        &m,
+        &FeatureOptions {
+            min_crease_length: d * l,
+            min_bridge_length: 0.8 * l,
+            ..Default::default()
+        },
+    );
     assert_eq!(all.edges().len(), 706);
     assert_eq!(filtered.edges(), all.edges());
     assert_eq!(filtered.corners(), all.corners());
     assert_eq!(filtered.lines(), all.lines());
+}
+
+#[test]
+fn a_box_keeps_short_edges_between_corners_above_the_bridge_threshold() {
+    // A 2 × 1.5 × 0.3 box: its four 0.3-long edges run between two corners
+    // (junctions of three creases). Under a threshold of 0.45 they are
+    // short chains, but as bridges they are held to `min_bridge_length`.
+    let m = shapes::cube(4, DVec3::ZERO, DVec3::new(2.0, 1.5, 0.3));
+    let all = detect_features(&m, &opts(0.0));
+    assert_eq!(all.corners().len(), 8);
+    let kept = detect_features(
+        &m,
+        &FeatureOptions {
+            min_crease_length: 0.45,
+            min_bridge_length: 0.2,
+            ..Default::default()
+        },
+    );
+    assert_eq!(kept.edges(), all.edges());
+    assert_eq!(kept.corners(), all.corners());
+    // Without a bridge threshold of its own, the short edges go.
+    let dropped = detect_features(&m, &opts(0.45));
+    assert!(dropped.edges().len() < all.edges().len());
+    // The short edges are split in 4 segments of 0.075: a bridge below its
+    // threshold still goes.
+    let bridged = detect_features(
+        &m,
+        &FeatureOptions {
+            min_crease_length: 0.45,
+            min_bridge_length: 0.35,
+            ..Default::default()
+        },
+    );
+    assert_eq!(bridged.edges().len(), dropped.edges().len());
 }
 
 /// Fraction of faces whose smallest angle is below `deg`, and the smallest angle.

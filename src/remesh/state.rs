@@ -130,6 +130,7 @@ impl State {
                 feature_angle_deg: options.feature_angle,
                 corner_angle_deg: options.corner_angle,
                 min_crease_length: options.min_crease_length * unit,
+                min_bridge_length: COLLAPSE_FACTOR * unit,
             },
         );
         let nv = mesh.vertex_capacity();

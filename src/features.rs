@@ -69,7 +69,8 @@ pub struct FeatureOptions {
     pub corner_angle_deg: f64,
     /// Creases smaller than this, in model units, are dropped: a crease-only
     /// feature component shorter in total, and a crease-only chain shorter
-    /// than this between two vertices where lines end or meet; and a turn
+    /// than this from a free end to a vertex where lines end or meet (a
+    /// chain between two junctions is held to `min_bridge_length`); and a turn
     /// that only wiggles within this distance of another corner is not a
     /// corner (see `small_creases_kept` and `turn_is_wiggle`). 0 keeps every
     /// crease. Boundaries, label borders and non-manifold edges are never
@@ -81,7 +82,7 @@ pub struct FeatureOptions {
     /// (a box's short edge between two corners), and dropping it costs more
     /// shape than dropping a fragment or a spur. Default infinite (the
     /// bridge threshold is `min_crease_length`); the remesher sets it to the
-    /// shortest edge of its band, 4/5 of the target.
+    /// shortest edge of its band, 4/5 of its length unit.
     pub min_bridge_length: f64,
 }
 

@@ -11,7 +11,6 @@ use crate::features::{DEFAULT_CORNER_ANGLE_DEG, DEFAULT_FEATURE_ANGLE_DEG};
 pub const DEFAULT_ITERATIONS: u32 = 10;
 /// Default number of relaxation + projection steps per iteration.
 pub const DEFAULT_RELAXATION_STEPS: u32 = 1;
-/// Default gradation for adaptive sizing: h(v) ≤ h(u) + g·|uv|.
 /// Default [`RemeshOptions::min_crease_length`], in target lengths: 1.5,
 /// just under two of the shortest edges the band allows (2 × 4/5), so a
 /// dropped crease is one that could carry at most one output edge and would
@@ -23,7 +22,7 @@ pub const DEFAULT_RELAXATION_STEPS: u32 = 1;
 /// (1.44 → 2.44 ‰), as two 48° creases of its coarse input, 1.57·L long,
 /// are then dropped.
 pub const DEFAULT_MIN_CREASE_LENGTH: f64 = 1.5;
-/// Default gradation of adaptive sizing.
+/// Default gradation of adaptive sizing: h(v) ≤ h(u) + g·|uv|.
 pub const DEFAULT_GRADATION: f64 = crate::sizing::DEFAULT_GRADATION;
 /// Default cap on the estimated output face count, a guard against a tiny
 /// target length exhausting memory.
@@ -84,9 +83,9 @@ pub struct RemeshOptions {
     /// crease fragment, or a crease spur ending in a free end, shorter than
     /// it cannot be resampled by edges in the band and only pins corners a
     /// fraction of an edge apart. A chain between two junctions goes only
-    /// below the smaller of this and 4/5 of the target. Under adaptive sizing the unit is the
-    /// smallest allowed target. 0 keeps every crease. Default
-    /// [`DEFAULT_MIN_CREASE_LENGTH`].
+    /// below the smaller of this and 4/5 of the target. Under adaptive
+    /// sizing the unit is the smallest allowed target. 0 keeps every crease.
+    /// Default [`DEFAULT_MIN_CREASE_LENGTH`].
     pub min_crease_length: f64,
     /// Uniform or adaptive sizing. Default uniform.
     pub sizing: Sizing,

@@ -510,23 +510,28 @@ fn small_creases_kept(
                 let mut chain = Vec::new();
                 let (mut v, mut e) = (v0, first);
                 let mut total = 0.0;
-                let reached_end = loop {
+                // The feature degree of the chain's far end, once reached
+                // within the threshold.
+                let end_degree = loop {
                     chain.push(e);
                     total += len(e as usize);
                     let [a, b] = edges[e as usize];
                     v = if a == v { b } else { a };
                     if total >= min_len {
-                        break false;
+                        break None;
                     }
-                    if v == v0 || live(&offset, &adj, &keep, v).count() != 2 {
-                        break true;
+                    let d = live(&offset, &adj, &keep, v).count();
+                    if v == v0 || d != 2 {
+                        break Some(d);
                     }
                     e = live(&offset, &adj, &keep, v).find(|&f| f != e).unwrap();
                 };
                 // A bridge between two junctions has its own threshold.
-                let bridge = d0 > 2 && live(&offset, &adj, &keep, v).count() > 2;
-                let short = !bridge || total < min_bridge;
-                if reached_end && short && chain.iter().all(|&e| crease_only(e as usize)) {
+                let short = match end_degree {
+                    None => false,
+                    Some(d) => d0 <= 2 || d <= 2 || total < min_bridge,
+                };
+                if short && chain.iter().all(|&e| crease_only(e as usize)) {
                     for &e in &chain {
                         keep[e as usize] = false;
                     }

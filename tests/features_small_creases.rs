@@ -36,6 +36,14 @@ fn opts(min_crease_length: f64) -> FeatureOptions {
     }
 }
 
+/// [`opts`] with a threshold of its own for bridges between junctions.
+fn bridged(min_crease_length: f64, min_bridge_length: f64) -> FeatureOptions {
+    FeatureOptions {
+        min_bridge_length,
+        ..opts(min_crease_length)
+    }
+}
+
 #[test]
 fn bumps_make_small_crease_components_that_the_filter_drops() {
     let n = 16;
@@ -89,14 +97,7 @@ fn fandisk_keeps_every_crease_and_corner_at_the_bench_length() {
     let l = 0.0075 * m.bbox_diagonal();
     let all = detect_features(&m, &opts(0.0));
     let d = RemeshOptions::default().min_crease_length;
-    let filtered = detect_features(
-        &m,
-        &FeatureOptions {
-            min_crease_length: d * l,
-            min_bridge_length: 0.8 * l,
-            ..Default::default()
-        },
-    );
+    let filtered = detect_features(&m, &bridged(d * l, 0.8 * l));
     assert_eq!(all.edges().len(), 706);
     assert_eq!(filtered.edges(), all.edges());
     assert_eq!(filtered.corners(), all.corners());
@@ -111,14 +112,7 @@ fn a_box_keeps_short_edges_between_corners_above_the_bridge_threshold() {
     let m = shapes::cube(4, DVec3::ZERO, DVec3::new(2.0, 1.5, 0.3));
     let all = detect_features(&m, &opts(0.0));
     assert_eq!(all.corners().len(), 8);
-    let kept = detect_features(
-        &m,
-        &FeatureOptions {
-            min_crease_length: 0.45,
-            min_bridge_length: 0.2,
-            ..Default::default()
-        },
-    );
+    let kept = detect_features(&m, &bridged(0.45, 0.2));
     assert_eq!(kept.edges(), all.edges());
     assert_eq!(kept.corners(), all.corners());
     // Without a bridge threshold of its own, the short edges go.
@@ -126,15 +120,8 @@ fn a_box_keeps_short_edges_between_corners_above_the_bridge_threshold() {
     assert!(dropped.edges().len() < all.edges().len());
     // The short edges are split in 4 segments of 0.075: a bridge below its
     // threshold still goes.
-    let bridged = detect_features(
-        &m,
-        &FeatureOptions {
-            min_crease_length: 0.45,
-            min_bridge_length: 0.35,
-            ..Default::default()
-        },
-    );
-    assert_eq!(bridged.edges().len(), dropped.edges().len());
+    let below = detect_features(&m, &bridged(0.45, 0.35));
+    assert_eq!(below.edges().len(), dropped.edges().len());
 }
 
 /// Fraction of faces whose smallest angle is below `deg`, and the smallest angle.

@@ -118,87 +118,28 @@ impl State {
         let tm = mesh.to_trimesh();
         let diag = tm.bbox_diagonal();
         let area = tm.area();
-        let index = SurfaceIndex::from_trimesh(&tm);
-        let uniform_l =
-            (options.sizing == Sizing::Uniform).then(|| uniform_target(&mesh, options, diag, area));
-        // The unit of min_crease_length: L, or the smallest adaptive target.
-        let unit = uniform_l.unwrap_or_else(|| adaptive_options(options, diag).min_edge_length);
-        let features = detect_features(
-            &tm,
-            &FeatureOptions {
-                preserve_features: options.preserve_features,
-                feature_angle_deg: options.feature_angle,
-                corner_angle_deg: options.corner_angle,
-                min_crease_length: options.min_crease_length * unit,
-                min_bridge_length: COLLAPSE_FACTOR * unit,
+        // The spatial index and the input's face adjacency need nothing of
+        // the features or the sizing, so they are built beside them: the BVH
+        // build is serial, and the other side's loops fill the second core.
+        let ((index, (vertex_face_start, vertex_faces), face_neighbors), reference) = rayon::join(
+            || {
+                let index = SurfaceIndex::from_trimesh(&tm);
+                let csr = vertex_face_csr(&tm);
+                let neighbors = face_neighbors(&tm, &csr.0, &csr.1);
+                (index, csr, neighbors)
             },
+            || Reference::build(&mesh, &tm, options, diag, area),
         );
+        let Reference {
+            features,
+            sizing,
+            size,
+            uniform,
+            kind,
+            hint_seg,
+            fixed_turns,
+        } = reference?;
         let nv = mesh.vertex_capacity();
-        let is_feature = |a: u32, b: u32| features.is_feature_edge(a, b);
-        let mut uniform = None;
-        let (sizing, size) = match options.sizing {
-            Sizing::Uniform => {
-                let l = uniform_l.expect("computed above for uniform sizing");
-                check_estimate(area, l, options.max_output_faces)?;
-                uniform = Some(l);
-                if options.refine_curved {
-                    let so = SizingOptions {
-                        tolerance: CURVED_TOLERANCE * l,
-                        min_edge_length: CURVED_MIN_EDGE * l,
-                        max_edge_length: l,
-                        gradation: options.gradation,
-                        crease_bound: true,
-                    };
-                    let field = SizingField::from_mesh(
-                        &tm,
-                        &so,
-                        &curvature::CurvatureOptions::default(),
-                        Some(&is_feature),
-                    )
-                    .map_err(|e| RemeshError::Internal(format!("sizing: {e}")))?;
-                    let sizes = field.vertex_sizes().to_vec();
-                    (Some(field), sizes)
-                } else {
-                    (None, vec![l; nv])
-                }
-            }
-            Sizing::Adaptive => {
-                let so = adaptive_options(options, diag);
-                let field = SizingField::from_mesh(
-                    &tm,
-                    &so,
-                    &curvature::CurvatureOptions::default(),
-                    Some(&is_feature),
-                )
-                .map_err(|e| RemeshError::InvalidOption {
-                    field: "tolerance",
-                    message: e.to_string(),
-                })?;
-                let sizes = field.vertex_sizes().to_vec();
-                let min = sizes.iter().cloned().fold(f64::INFINITY, f64::min);
-                check_estimate(area, min.max(so.min_edge_length), options.max_output_faces)?;
-                (Some(field), sizes)
-            }
-        };
-        let mut kind = vec![SMOOTH; nv];
-        let mut hint_seg = vec![0u32; nv];
-        for v in 0..nv as u32 {
-            kind[v as usize] = match features.vertex_kind(v) {
-                VertexKind::Smooth => SMOOTH,
-                VertexKind::Corner => CORNER,
-                VertexKind::Line(l) => {
-                    if let Some((_, i)) = features.vertex_line_index(v) {
-                        hint_seg[v as usize] = i.saturating_sub(1);
-                    }
-                    l
-                }
-            };
-        }
-        let mut nbhd = Neighborhood::new(nv);
-        if options.preserve_features {
-            anchor_tips(&mesh, &size, &mut nbhd, &mut kind);
-        }
-        let fixed_turns = anchor_turns(&mesh, &features, &size, &mut nbhd, &mut kind);
         let mut hint_face = vec![0u32; nv];
         for f in mesh.faces() {
             for v in mesh.face_vertices(f) {
@@ -217,8 +158,6 @@ impl State {
             .into_par_iter()
             .map(|f| index.face_normal(f))
             .collect();
-        let (vertex_face_start, vertex_faces) = vertex_face_csr(&tm);
-        let face_neighbors = face_neighbors(&tm, &vertex_face_start, &vertex_faces);
         Ok(PartialState {
             face_neighbors,
             fixed_turns,
@@ -463,6 +402,120 @@ impl Neighborhood {
             }
         }
         false
+    }
+}
+
+/// What prepare derives from the input beside the spatial index: the
+/// features, the sizing and the per-vertex kinds and hints.
+struct Reference {
+    features: FeatureSet,
+    sizing: Option<SizingField>,
+    size: Vec<f64>,
+    uniform: Option<f64>,
+    kind: Vec<u32>,
+    hint_seg: Vec<u32>,
+    fixed_turns: u64,
+}
+
+impl Reference {
+    /// Detects the features, builds the sizing and anchors the feature
+    /// vertices that must not move.
+    fn build(
+        mesh: &Mesh,
+        tm: &TriMesh,
+        options: &RemeshOptions,
+        diag: f64,
+        area: f64,
+    ) -> Result<Self, RemeshError> {
+        let uniform_l =
+            (options.sizing == Sizing::Uniform).then(|| uniform_target(mesh, options, diag, area));
+        // The unit of min_crease_length: L, or the smallest adaptive target.
+        let unit = uniform_l.unwrap_or_else(|| adaptive_options(options, diag).min_edge_length);
+        let features = detect_features(
+            tm,
+            &FeatureOptions {
+                preserve_features: options.preserve_features,
+                feature_angle_deg: options.feature_angle,
+                corner_angle_deg: options.corner_angle,
+                min_crease_length: options.min_crease_length * unit,
+                min_bridge_length: COLLAPSE_FACTOR * unit,
+            },
+        );
+        let nv = mesh.vertex_capacity();
+        let is_feature = |a: u32, b: u32| features.is_feature_edge(a, b);
+        let mut uniform = None;
+        let (sizing, size) = match options.sizing {
+            Sizing::Uniform => {
+                let l = uniform_l.expect("computed above for uniform sizing");
+                check_estimate(area, l, options.max_output_faces)?;
+                uniform = Some(l);
+                if options.refine_curved {
+                    let so = SizingOptions {
+                        tolerance: CURVED_TOLERANCE * l,
+                        min_edge_length: CURVED_MIN_EDGE * l,
+                        max_edge_length: l,
+                        gradation: options.gradation,
+                        crease_bound: true,
+                    };
+                    let field = SizingField::from_mesh(
+                        tm,
+                        &so,
+                        &curvature::CurvatureOptions::default(),
+                        Some(&is_feature),
+                    )
+                    .map_err(|e| RemeshError::Internal(format!("sizing: {e}")))?;
+                    let sizes = field.vertex_sizes().to_vec();
+                    (Some(field), sizes)
+                } else {
+                    (None, vec![l; nv])
+                }
+            }
+            Sizing::Adaptive => {
+                let so = adaptive_options(options, diag);
+                let field = SizingField::from_mesh(
+                    tm,
+                    &so,
+                    &curvature::CurvatureOptions::default(),
+                    Some(&is_feature),
+                )
+                .map_err(|e| RemeshError::InvalidOption {
+                    field: "tolerance",
+                    message: e.to_string(),
+                })?;
+                let sizes = field.vertex_sizes().to_vec();
+                let min = sizes.iter().cloned().fold(f64::INFINITY, f64::min);
+                check_estimate(area, min.max(so.min_edge_length), options.max_output_faces)?;
+                (Some(field), sizes)
+            }
+        };
+        let mut kind = vec![SMOOTH; nv];
+        let mut hint_seg = vec![0u32; nv];
+        for v in 0..nv as u32 {
+            kind[v as usize] = match features.vertex_kind(v) {
+                VertexKind::Smooth => SMOOTH,
+                VertexKind::Corner => CORNER,
+                VertexKind::Line(l) => {
+                    if let Some((_, i)) = features.vertex_line_index(v) {
+                        hint_seg[v as usize] = i.saturating_sub(1);
+                    }
+                    l
+                }
+            };
+        }
+        let mut nbhd = Neighborhood::new(nv);
+        if options.preserve_features {
+            anchor_tips(mesh, &size, &mut nbhd, &mut kind);
+        }
+        let fixed_turns = anchor_turns(mesh, &features, &size, &mut nbhd, &mut kind);
+        Ok(Self {
+            features,
+            sizing,
+            size,
+            uniform,
+            kind,
+            hint_seg,
+            fixed_turns,
+        })
     }
 }
 

@@ -389,6 +389,12 @@ async fn shutdown_signal() {
     tracing::info!("shutdown signal received");
 }
 
+/// mimalloc keeps freed memory for reuse: the passes allocate and drop
+/// buffers of the mesh's size every iteration, and the system allocator
+/// returns those to the kernel and faults them in again each time.
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {

@@ -118,6 +118,12 @@ impl State {
         let tm = mesh.to_trimesh();
         let diag = tm.bbox_diagonal();
         let area = tm.area();
+        let uniform_l =
+            (options.sizing == Sizing::Uniform).then(|| uniform_target(&mesh, options, diag, area));
+        // A uniform target's estimate needs no field: refuse before any work.
+        if let Some(l) = uniform_l {
+            check_estimate(area, l, options.max_output_faces)?;
+        }
         // The spatial index and the input's face adjacency need nothing of
         // the features or the sizing, so they are built beside them: the BVH
         // build is serial, and the other side's loops fill the second core.
@@ -128,7 +134,7 @@ impl State {
                 let neighbors = face_neighbors(&tm, &csr.0, &csr.1);
                 (index, csr, neighbors)
             },
-            || Reference::build(&mesh, &tm, options, diag, area),
+            || Reference::build(&mesh, &tm, options, uniform_l, diag, area),
         );
         let Reference {
             features,
@@ -420,15 +426,17 @@ struct Reference {
 impl Reference {
     /// Detects the features, builds the sizing and anchors the feature
     /// vertices that must not move.
+    ///
+    /// `uniform_l` is the target under uniform sizing, already checked
+    /// against the output limit.
     fn build(
         mesh: &Mesh,
         tm: &TriMesh,
         options: &RemeshOptions,
+        uniform_l: Option<f64>,
         diag: f64,
         area: f64,
     ) -> Result<Self, RemeshError> {
-        let uniform_l =
-            (options.sizing == Sizing::Uniform).then(|| uniform_target(mesh, options, diag, area));
         // The unit of min_crease_length: L, or the smallest adaptive target.
         let unit = uniform_l.unwrap_or_else(|| adaptive_options(options, diag).min_edge_length);
         let features = detect_features(
@@ -446,8 +454,7 @@ impl Reference {
         let mut uniform = None;
         let (sizing, size) = match options.sizing {
             Sizing::Uniform => {
-                let l = uniform_l.expect("computed above for uniform sizing");
-                check_estimate(area, l, options.max_output_faces)?;
+                let l = uniform_l.expect("computed by the caller for uniform sizing");
                 uniform = Some(l);
                 if options.refine_curved {
                     let so = SizingOptions {

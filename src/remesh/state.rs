@@ -140,7 +140,6 @@ impl State {
             features,
             sizing,
             size,
-            uniform,
             kind,
             hint_seg,
             fixed_turns,
@@ -177,7 +176,7 @@ impl State {
             hint_face,
             hint_seg,
             size,
-            uniform,
+            uniform: uniform_l,
             edge_line,
             input_normals,
         })
@@ -417,7 +416,6 @@ struct Reference {
     features: FeatureSet,
     sizing: Option<SizingField>,
     size: Vec<f64>,
-    uniform: Option<f64>,
     kind: Vec<u32>,
     hint_seg: Vec<u32>,
     fixed_turns: u64,
@@ -451,11 +449,9 @@ impl Reference {
         );
         let nv = mesh.vertex_capacity();
         let is_feature = |a: u32, b: u32| features.is_feature_edge(a, b);
-        let mut uniform = None;
         let (sizing, size) = match options.sizing {
             Sizing::Uniform => {
                 let l = uniform_l.expect("computed by the caller for uniform sizing");
-                uniform = Some(l);
                 if options.refine_curved {
                     let so = SizingOptions {
                         tolerance: CURVED_TOLERANCE * l,
@@ -518,7 +514,6 @@ impl Reference {
             features,
             sizing,
             size,
-            uniform,
             kind,
             hint_seg,
             fixed_turns,

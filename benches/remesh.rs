@@ -8,6 +8,11 @@ use isoremesh::remesh::{remesh, NoObserver, RemeshOptions};
 use isoremesh::shapes;
 use std::hint::black_box;
 
+// The shipped binary's allocator (src/main.rs), so the bench measures what
+// the CLI and the service run.
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 fn bench_remesh(c: &mut Criterion) {
     let torus = shapes::torus(3.0, 1.0, 2000, 250);
     let (mesh, _) = Mesh::from_trimesh(&torus).unwrap();

@@ -20,6 +20,8 @@
 //! its target), creases too small to resample are dropped first and turns
 //! that only wiggle next to another corner are not made corners: the noise
 //! creases of scans would otherwise pin corners a fraction of an edge apart.
+//! Of two creases drawn a fraction of an edge apart between the same two
+//! junctions, one is kept (see `twin_creases_kept`).
 //!
 //! [`polyline_distance`] measures how well an output mesh keeps a set of input
 //! edges, the `features` / `boundary` metric of `bench/quality.py`.
@@ -233,6 +235,11 @@ pub fn detect_features(mesh: &TriMesh, opts: &FeatureOptions) -> FeatureSet {
     if opts.min_crease_length > 0.0 {
         let bridge = opts.min_bridge_length.min(opts.min_crease_length);
         let keep = small_creases_kept(mesh, &edges, &edge_flags, opts.min_crease_length, bridge);
+        (edges, edge_flags) = (edges.iter().zip(&edge_flags).zip(&keep))
+            .filter(|(_, &k)| k)
+            .map(|((&e, &f), _)| (e, f))
+            .unzip();
+        let keep = twin_creases_kept(mesh, &edges, &edge_flags, TWIN_GAP * opts.min_crease_length);
         (edges, edge_flags) = (edges.iter().zip(&edge_flags).zip(&keep))
             .filter(|(_, &k)| k)
             .map(|((&e, &f), _)| (e, f))
@@ -543,6 +550,117 @@ fn small_creases_kept(
             return keep;
         }
     }
+}
+
+/// Largest gap between two crease chains that [`twin_creases_kept`] takes
+/// for one crease drawn twice, in units of
+/// [`FeatureOptions::min_crease_length`]: 1/6, a quarter of the remesher's
+/// target length at the default 1.5 L.
+const TWIN_GAP: f64 = 1.0 / 6.0;
+
+/// Which feature edges survive the twin rule: two crease-only chains that
+/// join the same two junctions (vertices where three or more feature edges
+/// meet) and stay within `gap` of each other all along (every vertex of each
+/// within `gap` of the other polyline) are one crease drawn twice, as scan
+/// noise draws a ridge's two flanks; the longer of the two goes. Kept, both
+/// pin the output to two lines a fraction of an edge apart, and every
+/// triangle between them is a sliver (camelhead: two such chains 0.02·L
+/// apart held 68 triangles below 30°), while dropping one moves no crease
+/// point farther than `gap` from an output edge.
+fn twin_creases_kept(
+    mesh: &TriMesh,
+    edges: &[[u32; 2]],
+    flags: &[EdgeFlags],
+    gap: f64,
+) -> Vec<bool> {
+    let mut keep = vec![true; edges.len()];
+    if gap.is_nan() || gap <= 0.0 {
+        return keep;
+    }
+    let nv = mesh.positions.len();
+    let (offset, adj) = feature_adjacency(nv, edges);
+    let row = |v: u32| &adj[offset[v as usize] as usize..offset[v as usize + 1] as usize];
+    // Chains between junctions, each once (from its smaller end, or its
+    // smaller first edge when both ends are the same vertex): the ends, the
+    // edges, the vertices in order and the length.
+    struct Chain {
+        ends: [u32; 2],
+        edges: Vec<u32>,
+        vertices: Vec<u32>,
+        length: f64,
+    }
+    let mut chains: Vec<Chain> = Vec::new();
+    for v0 in 0..nv as u32 {
+        if row(v0).len() < 3 {
+            continue;
+        }
+        for &[_, first] in row(v0) {
+            let mut c = Chain {
+                ends: [v0, v0],
+                edges: Vec::new(),
+                vertices: vec![v0],
+                length: 0.0,
+            };
+            let (mut v, mut e) = (v0, first);
+            let ok = loop {
+                if flags[e as usize] != EdgeFlags::SHARP {
+                    break false;
+                }
+                c.edges.push(e);
+                let [a, b] = edges[e as usize];
+                let w = if a == v { b } else { a };
+                c.length += (mesh.positions[w as usize] - mesh.positions[v as usize]).length();
+                c.vertices.push(w);
+                v = w;
+                let r = row(v);
+                if r.len() != 2 || v == v0 {
+                    break r.len() >= 3;
+                }
+                e = if r[0][1] == e { r[1][1] } else { r[0][1] };
+            };
+            let last = *c.edges.last().unwrap_or(&first);
+            if ok && (v0 < v || (v0 == v && first < last)) {
+                c.ends = [v0, v];
+                chains.push(c);
+            }
+        }
+    }
+    chains.sort_by_key(|c| (c.ends, c.edges[0]));
+    let pos = |v: u32| mesh.positions[v as usize];
+    // Every vertex of `a` within `gap` of `b`'s polyline.
+    let covered = |a: &Chain, b: &Chain| {
+        a.vertices.iter().all(|&v| {
+            let p = pos(v);
+            b.vertices
+                .windows(2)
+                .any(|s| closest_on_segment(pos(s[0]), pos(s[1]), p).2 <= gap * gap)
+        })
+    };
+    let mut i = 0;
+    while i < chains.len() {
+        let mut j = i + 1;
+        while j < chains.len() && chains[j].ends == chains[i].ends {
+            j += 1;
+        }
+        let group = &chains[i..j];
+        for x in 0..group.len() {
+            for y in x + 1..group.len() {
+                let (a, b) = (&group[x], &group[y]);
+                let live = |c: &Chain| c.edges.iter().all(|&e| keep[e as usize]);
+                if a.ends[0] == a.ends[1] || !live(a) || !live(b) {
+                    continue;
+                }
+                if covered(a, b) && covered(b, a) {
+                    let gone = if b.length >= a.length { b } else { a };
+                    for &e in &gone.edges {
+                        keep[e as usize] = false;
+                    }
+                }
+            }
+        }
+        i = j;
+    }
+    keep
 }
 
 /// Whether turn vertex `v` may be left off the corners: a corner already
@@ -1295,6 +1413,69 @@ pub fn boundary_distance(input: &TriMesh, output: &TriMesh, step: f64) -> Option
 mod tests {
     use super::*;
     use crate::shapes;
+
+    /// Two crease chains between junctions J1 (vertex 0) and J2 (vertex 1),
+    /// each junction with a spur: chain A runs straight, chain B beside it
+    /// at height `offset` (and so longer). Returns the positions, the edges
+    /// (spurs first, then A, then B) and the flags (B's taken from `b_flags`).
+    fn lens(offset: f64, b_flags: EdgeFlags) -> (TriMesh, Vec<[u32; 2]>, Vec<EdgeFlags>) {
+        let p = |x: f64, y: f64| DVec3::new(x, y, 0.0);
+        let positions = vec![
+            p(0.0, 0.0),
+            p(4.0, 0.0),
+            p(-1.0, 0.0),
+            p(5.0, 0.0),
+            p(1.0, 0.0),
+            p(2.0, 0.0),
+            p(3.0, 0.0),
+            p(1.0, offset),
+            p(2.0, 1.2 * offset),
+            p(3.0, offset),
+        ];
+        let edges = vec![
+            [0, 2],
+            [1, 3],
+            [0, 4],
+            [4, 5],
+            [5, 6],
+            [1, 6],
+            [0, 7],
+            [7, 8],
+            [8, 9],
+            [1, 9],
+        ];
+        let mut flags = vec![EdgeFlags::SHARP; edges.len()];
+        for f in &mut flags[6..] {
+            *f = b_flags;
+        }
+        (TriMesh::new(positions, Vec::new()), edges, flags)
+    }
+
+    /// Two creases between the same junctions within the gap: the longer
+    /// goes, the other and the spurs stay. Farther apart, or when one of
+    /// them is not a crease (a boundary), both stay.
+    #[test]
+    fn twin_creases_lose_the_longer_chain() {
+        let (mesh, edges, flags) = lens(0.1, EdgeFlags::SHARP);
+        let keep = twin_creases_kept(&mesh, &edges, &flags, 0.25);
+        assert_eq!(
+            keep,
+            [true, true, true, true, true, true, false, false, false, false]
+        );
+        let (mesh, edges, flags) = lens(0.5, EdgeFlags::SHARP);
+        assert!(twin_creases_kept(&mesh, &edges, &flags, 0.25)
+            .iter()
+            .all(|&k| k));
+        let (mesh, edges, flags) = lens(0.1, EdgeFlags::BOUNDARY);
+        assert!(twin_creases_kept(&mesh, &edges, &flags, 0.25)
+            .iter()
+            .all(|&k| k));
+        // A gap of zero switches the rule off.
+        let (mesh, edges, flags) = lens(0.0, EdgeFlags::SHARP);
+        assert!(twin_creases_kept(&mesh, &edges, &flags, 0.0)
+            .iter()
+            .all(|&k| k));
+    }
 
     #[test]
     fn segment_closest_point_returns_exact_end_points() {

@@ -21,7 +21,8 @@
 //! that only wiggle next to another corner are not made corners: the noise
 //! creases of scans would otherwise pin corners a fraction of an edge apart.
 //! Of two creases drawn a fraction of an edge apart between the same two
-//! junctions, one is kept (see `twin_creases_kept`).
+//! junctions, one is kept (see `twin_creases_kept`), and a flat face ringed
+//! by creases loses its longest (see `flat_creases_kept`).
 //!
 //! [`polyline_distance`] measures how well an output mesh keeps a set of input
 //! edges, the `features` / `boundary` metric of `bench/quality.py`.
@@ -240,6 +241,11 @@ pub fn detect_features(mesh: &TriMesh, opts: &FeatureOptions) -> FeatureSet {
             .map(|((&e, &f), _)| (e, f))
             .unzip();
         let keep = twin_creases_kept(mesh, &edges, &edge_flags, TWIN_GAP * opts.min_crease_length);
+        (edges, edge_flags) = (edges.iter().zip(&edge_flags).zip(&keep))
+            .filter(|(_, &k)| k)
+            .map(|((&e, &f), _)| (e, f))
+            .unzip();
+        let keep = flat_creases_kept(mesh, &edges, &edge_flags, TWIN_GAP * opts.min_crease_length);
         (edges, edge_flags) = (edges.iter().zip(&edge_flags).zip(&keep))
             .filter(|(_, &k)| k)
             .map(|((&e, &f), _)| (e, f))
@@ -557,6 +563,59 @@ fn small_creases_kept(
 /// [`FeatureOptions::min_crease_length`]: 1/6, a quarter of the remesher's
 /// target length at the default 1.5 L.
 const TWIN_GAP: f64 = 1.0 / 6.0;
+
+/// Which feature edges survive the flat-face rule: an input face whose three
+/// edges are all creases and whose height over its longest edge is at most
+/// `gap` (a cap: its third corner lies almost on that edge) loses the
+/// longest edge. Scan noise makes such faces, tilted against every
+/// neighbour; kept, the three creases meet at two corners with a sector of
+/// a few degrees (the bunny's narrowest, 0.48°), and every output triangle
+/// in it is a sliver. Every point of the dropped edge lies within the height
+/// of the two edges kept, which still join its ends. Faces are visited in
+/// index order against the edges still kept.
+fn flat_creases_kept(
+    mesh: &TriMesh,
+    edges: &[[u32; 2]],
+    flags: &[EdgeFlags],
+    gap: f64,
+) -> Vec<bool> {
+    let mut keep = vec![true; edges.len()];
+    if gap.is_nan() || gap <= 0.0 {
+        return keep;
+    }
+    let nv = mesh.positions.len();
+    let (offset, adj) = feature_adjacency(nv, edges);
+    let edge_id = |a: u32, b: u32| {
+        adj[offset[a as usize] as usize..offset[a as usize + 1] as usize]
+            .iter()
+            .find(|n| n[0] == b)
+            .map(|n| n[1] as usize)
+    };
+    for t in &mesh.triangles {
+        if t.iter().any(|&v| v as usize >= nv) {
+            continue;
+        }
+        let mut ids = [0usize; 3];
+        let mut all = true;
+        for k in 0..3 {
+            match edge_id(t[k], t[(k + 1) % 3]) {
+                Some(e) if keep[e] && flags[e] == EdgeFlags::SHARP => ids[k] = e,
+                _ => all = false,
+            }
+        }
+        if !all {
+            continue;
+        }
+        let p = t.map(|v| mesh.positions[v as usize]);
+        let len = [0, 1, 2].map(|k| p[k].distance(p[(k + 1) % 3]));
+        let k = (0..3).fold(0, |k, i| if len[i] > len[k] { i } else { k });
+        let area2 = crate::geometry::triangle_cross(p).length();
+        if len[k] > 0.0 && area2 / len[k] <= gap {
+            keep[ids[k]] = false;
+        }
+    }
+    keep
+}
 
 /// Which feature edges survive the twin rule: two crease-only chains that
 /// join the same two junctions (vertices where three or more feature edges
@@ -1475,6 +1534,38 @@ mod tests {
         assert!(twin_creases_kept(&mesh, &edges, &flags, 0.0)
             .iter()
             .all(|&k| k));
+    }
+
+    /// A cap face whose three edges are creases loses its longest edge when
+    /// its height is within the gap, and keeps all three otherwise.
+    #[test]
+    fn flat_crease_faces_lose_their_longest_edge() {
+        let cap = |h: f64| {
+            TriMesh::new(
+                vec![
+                    DVec3::ZERO,
+                    DVec3::new(2.0, 0.0, 0.0),
+                    DVec3::new(0.8, h, 0.0),
+                ],
+                vec![[0, 1, 2]],
+            )
+        };
+        let edges = [[0, 1], [0, 2], [1, 2]];
+        let sharp = [EdgeFlags::SHARP; 3];
+        assert_eq!(
+            flat_creases_kept(&cap(0.1), &edges, &sharp, 0.25),
+            [false, true, true]
+        );
+        assert_eq!(
+            flat_creases_kept(&cap(0.5), &edges, &sharp, 0.25),
+            [true; 3]
+        );
+        // A boundary edge is never dropped, nor any edge of its face.
+        let flags = [EdgeFlags::BOUNDARY, EdgeFlags::SHARP, EdgeFlags::SHARP];
+        assert_eq!(
+            flat_creases_kept(&cap(0.1), &edges, &flags, 0.25),
+            [true; 3]
+        );
     }
 
     #[test]

@@ -235,21 +235,13 @@ pub fn detect_features(mesh: &TriMesh, opts: &FeatureOptions) -> FeatureSet {
     let (mut edges, mut edge_flags) = classify_edges(mesh, opts.preserve_features, feature_angle);
     if opts.min_crease_length > 0.0 {
         let bridge = opts.min_bridge_length.min(opts.min_crease_length);
+        let gap = TWIN_GAP * opts.min_crease_length;
         let keep = small_creases_kept(mesh, &edges, &edge_flags, opts.min_crease_length, bridge);
-        (edges, edge_flags) = (edges.iter().zip(&edge_flags).zip(&keep))
-            .filter(|(_, &k)| k)
-            .map(|((&e, &f), _)| (e, f))
-            .unzip();
-        let keep = twin_creases_kept(mesh, &edges, &edge_flags, TWIN_GAP * opts.min_crease_length);
-        (edges, edge_flags) = (edges.iter().zip(&edge_flags).zip(&keep))
-            .filter(|(_, &k)| k)
-            .map(|((&e, &f), _)| (e, f))
-            .unzip();
-        let keep = flat_creases_kept(mesh, &edges, &edge_flags, TWIN_GAP * opts.min_crease_length);
-        (edges, edge_flags) = (edges.iter().zip(&edge_flags).zip(&keep))
-            .filter(|(_, &k)| k)
-            .map(|((&e, &f), _)| (e, f))
-            .unzip();
+        retain_kept(&mut edges, &mut edge_flags, &keep);
+        let keep = twin_creases_kept(mesh, &edges, &edge_flags, gap);
+        retain_kept(&mut edges, &mut edge_flags, &keep);
+        let keep = flat_creases_kept(mesh, &edges, &edge_flags, gap);
+        retain_kept(&mut edges, &mut edge_flags, &keep);
     }
 
     let (adj_offset, adj) = feature_adjacency(nv, &edges);
@@ -556,6 +548,14 @@ fn small_creases_kept(
             return keep;
         }
     }
+}
+
+/// Drops the feature edges (and their flags) whose `keep` entry is false.
+fn retain_kept(edges: &mut Vec<[u32; 2]>, flags: &mut Vec<EdgeFlags>, keep: &[bool]) {
+    (*edges, *flags) = (edges.iter().zip(flags.iter()).zip(keep))
+        .filter(|(_, &k)| k)
+        .map(|((&e, &f), _)| (e, f))
+        .unzip();
 }
 
 /// Largest gap between two crease chains that [`twin_creases_kept`] takes

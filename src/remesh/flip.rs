@@ -25,6 +25,11 @@ use crate::mesh::{EdgeId, FaceId, HalfedgeId, Handle, Mesh, VertexId};
 const MAX_DIHEDRAL_COS: f64 = 0.939_692_620_785_908_4;
 /// A valence flip may not create a face worse than this unless the old pair was already worse.
 const MIN_QUALITY: f64 = 0.3;
+/// Largest distance, in units of the local target, between the old and the
+/// new edge of a sliver-repair flip that fails the dihedral test (see
+/// [`sliver_geometry_ok`]): a tenth of an edge, 0.75 ‰ of the diagonal at
+/// the bench's L, half the median distance to the input.
+const SLIVER_SAG: f64 = 0.1;
 /// Sweeps over the edges per pass at most.
 const MAX_SWEEPS: usize = 6;
 /// Cosine of the smallest angle (30°) below which [`repair_slivers`] tries
@@ -288,10 +293,43 @@ fn sliver_flip(st: &State, f: FaceId) -> Option<EdgeId> {
     let (old, new) = quad_triangles(m, quad(m, h));
     // Cosine of the pair's smallest angle: lower is better.
     let worst = |t: [[DVec3; 3]; 2]| triangle_min_angle_cos(t[0]).max(triangle_min_angle_cos(t[1]));
-    if worst(new) >= worst(old) - 1e-12 || !geometry_ok(old, new) {
+    if worst(new) >= worst(old) - 1e-12 {
         return None;
     }
-    Some(e)
+    let [a, b, ..] = quad(m, h);
+    let tol = SLIVER_SAG * st.edge_target(a, b);
+    (geometry_ok(old, new) || sliver_geometry_ok(old, new, tol)).then_some(e)
+}
+
+/// The sliver repair's own geometric guard, for pairs that fail the
+/// dihedral test of [`geometry_ok`]. A cap (an angle near 180°) on a bend of
+/// the surface has no reliable normal, so its dihedral angle with the face
+/// across its long edge says nothing about the shape; on the bunny such a
+/// cap, between a feature line and its chord, kept a 6° angle. What a flip
+/// changes is the tetrahedron of the four vertices, whose thickness is the
+/// distance between the old edge `ab` and the new edge `cd`: the flip is
+/// allowed when that distance is at most `tol`, both new faces are
+/// non-degenerate and face the side of the pair's area-weighted normal (the
+/// cap, nearly flat, barely counts), and the new pair's worse face is no
+/// worse in quality than the old pair's.
+fn sliver_geometry_ok(old: [[DVec3; 3]; 2], new: [[DVec3; 3]; 2], tol: f64) -> bool {
+    let n = triangle_cross(old[0]) + triangle_cross(old[1]);
+    let (m1, m2) = (triangle_cross(new[0]), triangle_cross(new[1]));
+    if m1.dot(n) <= 0.0 || m2.dot(n) <= 0.0 {
+        return false;
+    }
+    let [a, b, c] = old[0];
+    let d = old[1][2];
+    let w = (b - a).cross(d - c);
+    let wl = w.length();
+    // Parallel edges cannot occur in a quad with both new faces facing `n`;
+    // refuse rather than divide by nothing.
+    if wl <= 0.0 || (c - a).dot(w).abs() > tol * wl {
+        return false;
+    }
+    let q_old = triangle_quality(old[0]).min(triangle_quality(old[1]));
+    let q_new = triangle_quality(new[0]).min(triangle_quality(new[1]));
+    q_new >= q_old
 }
 
 /// The quad around the edge of `h`: its ends `a` (tail) and `b` (head),
@@ -374,6 +412,31 @@ fn geometry_ok(old: [[DVec3; 3]; 2], new: [[DVec3; 3]; 2]) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The quad `ab` (the x-axis), `c` a cap apex bent up off the plane
+    /// of the face across `ab`, `d` in that plane; old and new pairs as
+    /// [`quad_triangles`] orders them.
+    fn cap_pair(c: DVec3) -> ([[DVec3; 3]; 2], [[DVec3; 3]; 2]) {
+        let (a, b, d) = (DVec3::ZERO, DVec3::X, DVec3::new(0.5, -0.8, 0.0));
+        ([[a, b, c], [b, a, d]], [[c, a, d], [d, b, c]])
+    }
+
+    #[test]
+    fn a_thin_cap_on_a_bend_may_flip_a_thick_one_may_not() {
+        // 34° between the cap and its neighbour: the dihedral guard refuses,
+        // but the new edge passes 0.019 from the old one.
+        let (old, new) = cap_pair(DVec3::new(0.5, 0.03, 0.02));
+        assert!(!geometry_ok(old, new));
+        assert!(sliver_geometry_ok(old, new, 0.1));
+        assert!(!sliver_geometry_ok(old, new, 0.01));
+        // The same cap raised to 0.3: the flip would cut 0.27 off the shape.
+        let (old, new) = cap_pair(DVec3::new(0.5, 0.03, 0.3));
+        assert!(!sliver_geometry_ok(old, new, 0.1));
+        // Folded under the neighbour's plane the other way round: the new
+        // faces would face away from the pair.
+        let (old, new) = cap_pair(DVec3::new(0.5, -0.9, 0.05));
+        assert!(!sliver_geometry_ok(old, new, 10.0));
+    }
     use crate::geometry::triangle_angles;
 
     /// The acos-free test agrees with summing the two opposite angles, and

@@ -10,7 +10,13 @@ narrowest sector over all feature vertices, the number of sectors below 30
 degrees at corners, and, given quality.py's JSON for an output, that
 output's smallest angle and its count of triangles below 30 degrees.
 
-    python3 benches/forced_angles.py ../shared/meshes/gltf/Duck.glb [quality.json]
+With --output OUT (a remeshed INPUT), it splits OUT's triangles by where
+their smallest angle sits: between two of OUT's own sharp or boundary
+edges at a vertex (inside a feature sector, which a kept feature line
+forces) or anywhere else (which only the remesher decides), and prints the
+smallest angle and the count below 20 degrees of each group.
+
+    python3 benches/forced_angles.py ../shared/meshes/gltf/Duck.glb [quality.json] [--output OUT]
 """
 import argparse
 import json
@@ -68,11 +74,34 @@ def sectors(V, F, angle):
         yield v, int(degree[v]), list(total.values())
 
 
+def split_by_sector(V, F, angle):
+    """Smallest angle per triangle, and whether it lies between two feature
+    (sharp or boundary) edges of the mesh itself."""
+    S = quality.sharp_edges(V, F, angle)
+    B = quality.boundary_edges(F)
+    E = np.vstack([S, B]) if len(B) else S
+    feature = set(map(tuple, np.sort(E, 1).tolist()))
+    P = V[F]
+    ang = np.zeros(F.shape)
+    for i in range(3):
+        a = P[:, (i + 1) % 3] - P[:, i]
+        b = P[:, (i + 2) % 3] - P[:, i]
+        n = np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1) + 1e-300
+        ang[:, i] = np.degrees(np.arccos(np.clip((a * b).sum(1) / n, -1, 1)))
+    k = ang.argmin(1)
+    in_sector = np.array([
+        tuple(sorted((int(t[j]), int(t[(j + 1) % 3])))) in feature
+        and tuple(sorted((int(t[j]), int(t[(j + 2) % 3])))) in feature
+        for t, j in zip(F, k)], dtype=bool)
+    return ang.min(1), in_sector
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("input")
     ap.add_argument("quality_json", nargs="?")
     ap.add_argument("--angle", type=float, default=45.0)
+    ap.add_argument("--output", help="a remeshed INPUT: split its angles by feature sector")
     a = ap.parse_args()
     V, F = load_mesh(a.input)
     narrowest, at, below30 = np.inf, None, 0
@@ -89,6 +118,13 @@ def main():
         n30 = round(r["angles"]["frac_min_below_30"] * r["topology_out"]["F"])
         line += f"; output min angle {r['angles']['min_deg']:.2f} deg, {n30} triangles below 30 deg"
     print(line)
+    if a.output:
+        Vo, Fo = load_mesh(a.output)
+        mn, sec = split_by_sector(Vo, Fo, a.angle)
+        for name, part in (("in feature sectors", mn[sec]), ("elsewhere", mn[~sec])):
+            low = f"{part.min():.2f} deg" if len(part) else "-"
+            print(f"  output {name}: {len(part)} triangles, smallest angle {low}, "
+                  f"{int((part < 20).sum())} below 20 deg")
 
 
 if __name__ == "__main__":

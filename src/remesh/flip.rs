@@ -8,7 +8,10 @@
 //!
 //! Guards: never a feature or boundary edge; the two faces must be nearly
 //! coplanar, so a flip never changes the shape; both new faces must keep the
-//! orientation and must not be degenerate or much worse than before.
+//! orientation and must not be degenerate or much worse than before. The
+//! sliver repair alone may flip a pair that fails the coplanarity test when
+//! the four vertices span a thin tetrahedron (a cap on a bend, whose normal
+//! means nothing; see [`sliver_geometry_ok`]).
 
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -290,14 +293,14 @@ fn sliver_flip(st: &State, f: FaceId) -> Option<EdgeId> {
     if st.line_of(e).is_some() || m.is_boundary_edge(e) || !m.can_flip(e) {
         return None;
     }
-    let (old, new) = quad_triangles(m, quad(m, h));
+    let q = quad(m, h);
+    let (old, new) = quad_triangles(m, q);
     // Cosine of the pair's smallest angle: lower is better.
     let worst = |t: [[DVec3; 3]; 2]| triangle_min_angle_cos(t[0]).max(triangle_min_angle_cos(t[1]));
     if worst(new) >= worst(old) - 1e-12 {
         return None;
     }
-    let [a, b, ..] = quad(m, h);
-    let tol = SLIVER_SAG * st.edge_target(a, b);
+    let tol = SLIVER_SAG * st.edge_target(q[0], q[1]);
     (geometry_ok(old, new) || sliver_geometry_ok(old, new, tol)).then_some(e)
 }
 
@@ -412,6 +415,7 @@ fn geometry_ok(old: [[DVec3; 3]; 2], new: [[DVec3; 3]; 2]) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::triangle_angles;
 
     /// The quad `ab` (the x-axis), `c` a cap apex bent up off the plane
     /// of the face across `ab`, `d` in that plane; old and new pairs as
@@ -437,7 +441,6 @@ mod tests {
         let (old, new) = cap_pair(DVec3::new(0.5, -0.9, 0.05));
         assert!(!sliver_geometry_ok(old, new, 10.0));
     }
-    use crate::geometry::triangle_angles;
 
     /// The acos-free test agrees with summing the two opposite angles, and
     /// leaves co-circular quads alone.

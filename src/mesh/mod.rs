@@ -10,8 +10,8 @@
 //!
 //! Removal marks elements deleted; [`Mesh::compact`] removes them and remaps
 //! handles. The topological operators and their guards are in [`edit`],
-//! construction with repair in [`build`], the invariant checker in
-//! [`validate`]. The design follows the half-edge structure of OpenMesh and
+//! construction with repair in `build.rs`, the invariant checker in
+//! `validate.rs`. The design follows the half-edge structure of OpenMesh and
 //! pmp-library (Sieger & Botsch), written anew here.
 
 mod build;

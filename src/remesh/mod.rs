@@ -11,8 +11,9 @@
 //! 30° where that helps, moves their vertices to where their one-ring's
 //! smallest angle is largest, and flips once more. Topology lives
 //! in [`crate::mesh`]; this module only decides *which* edges and vertices to
-//! change. One pass per file: [`split`], [`collapse`], [`flip`], [`relax`]
-//! (relaxation and projection share the guarded move in [`relax`]).
+//! change. One pass per file: `split.rs`, `collapse.rs`, `flip.rs`,
+//! `relax.rs` (relaxation and projection share the guarded move in
+//! `relax.rs`).
 //!
 //! Every pass is deterministic: topological passes walk handles in index
 //! order, and the parallel passes are pure per-vertex maps applied at once,
@@ -27,7 +28,7 @@ mod state;
 
 pub use options::{
     RemeshOptions, Sizing, DEFAULT_GRADATION, DEFAULT_ITERATIONS, DEFAULT_MAX_OUTPUT_FACES,
-    DEFAULT_RELAXATION_STEPS,
+    DEFAULT_MIN_CREASE_LENGTH, DEFAULT_RELAXATION_STEPS,
 };
 
 use serde::{Deserialize, Serialize};

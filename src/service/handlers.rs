@@ -1,5 +1,5 @@
 //! One function per endpoint. Handlers translate HTTP into calls on the
-//! [`Service`](super::Service) and the pipeline and back; blocking work
+//! [`super::Service`] and the pipeline and back; blocking work
 //! (parsing, file I/O, re-encoding) goes to `spawn_blocking`, and every
 //! failure leaves as a [`Problem`].
 

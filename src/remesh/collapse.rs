@@ -39,7 +39,8 @@ use crate::mesh::{EdgeId, HalfedgeId, Handle, VertexId};
 
 /// Largest normal change of a one-ring face caused by a collapse, as a cosine (≈ 45°).
 const MAX_NORMAL_CHANGE_COS: f64 = std::f64::consts::FRAC_1_SQRT_2;
-/// A collapse may not leave a face with quality below this unless the face was already worse.
+/// A collapse may not leave a face with quality below this unless the
+/// one-ring's worst face (the two removed faces included) was already worse.
 const MIN_QUALITY: f64 = 0.2;
 /// A collapse may not create a vertex with more edges than this. Besides
 /// keeping valences near 6, this bounds the cost of every check around the
@@ -195,6 +196,11 @@ fn collapse_quality(st: &State, h: HalfedgeId, p: DVec3, stretch: f64) -> Option
     let moved_v1 = p != m.position(v1);
     let removed = [m.face(h), m.face(h.twin())];
     let mut worst = f64::INFINITY;
+    let mut worst_before = removed
+        .iter()
+        .filter(|f| f.is_valid())
+        .map(|&f| triangle_quality(m.face_positions(f)))
+        .fold(f64::INFINITY, f64::min);
     let size_after = st.size[v1.idx()].min(st.size[v0.idx()]);
     // How close the new fan comes to the old positions of the removed vertex
     // and (when it moves) the kept one; see the deviation guard in the module docs.
@@ -239,11 +245,8 @@ fn collapse_quality(st: &State, h: HalfedgeId, p: DVec3, stretch: f64) -> Option
             if l_new <= 0.0 || n_old.dot(n_new) <= MAX_NORMAL_CHANGE_COS * l_old * l_new {
                 return None;
             }
-            let q_new = triangle_quality(new);
-            if q_new < MIN_QUALITY && q_new < triangle_quality(old) {
-                return None;
-            }
-            worst = worst.min(q_new);
+            worst = worst.min(triangle_quality(new));
+            worst_before = worst_before.min(triangle_quality(old));
             for (d, q) in near.iter_mut().zip([p0, p1]) {
                 // Once within the tolerance, a point needs no more faces.
                 if *d > tol2 {
@@ -254,6 +257,15 @@ fn collapse_quality(st: &State, h: HalfedgeId, p: DVec3, stretch: f64) -> Option
         }
     }
     if near.iter().any(|&d| d.is_finite() && d > tol2) {
+        return None;
+    }
+    // The shape guard compares the worst face of the one-ring before (the
+    // two faces that go away included) and after, not face by face: in a
+    // field of needles (the skinny strips of a CAD tessellation after their
+    // long edges are split) a collapse that removes the two worst faces
+    // narrows some neighbour a little, and a per-face test then refused
+    // nearly every collapse there.
+    if worst < MIN_QUALITY && worst < worst_before {
         return None;
     }
     Some(worst)

@@ -7,10 +7,10 @@
 //! ([`crate::mesh::Mesh::can_collapse`]: link condition, boundary rules), the
 //! length guard (no resulting edge longer than 4/3 of its target, or up to
 //! [`VERY_SHORT_STRETCH`] times that for a smooth interior edge under half
-//! its target, under uniform sizing), the
-//! shape guard (no face of the one-ring flips or degenerates, and the
-//! one-ring's worst face, the two removed faces included, does not get
-//! worse below [`MIN_QUALITY`]) and the deviation guard (the new one-ring passes within
+//! its target, under uniform sizing), the shape guard (no face of the
+//! one-ring flips or degenerates, and the one-ring's worst face, the two
+//! removed faces included, does not get worse below [`MIN_QUALITY`]) and
+//! the deviation guard (the new one-ring passes within
 //! [`DEVIATION_FACTOR`] times the target of where the removed vertex, and a
 //! moved kept vertex, were: vertices lie on the input, so a collapse that
 //! leaves one farther cuts the input there, as across the crest of a rounded

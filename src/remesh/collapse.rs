@@ -197,11 +197,6 @@ fn collapse_quality(st: &State, h: HalfedgeId, p: DVec3, stretch: f64) -> Option
     let moved_v1 = p != m.position(v1);
     let removed = [m.face(h), m.face(h.twin())];
     let mut worst = f64::INFINITY;
-    let mut worst_before = removed
-        .iter()
-        .filter(|f| f.is_valid())
-        .map(|&f| triangle_quality(m.face_positions(f)))
-        .fold(f64::INFINITY, f64::min);
     let size_after = st.size[v1.idx()].min(st.size[v0.idx()]);
     // How close the new fan comes to the old positions of the removed vertex
     // and (when it moves) the kept one; see the deviation guard in the module docs.
@@ -247,7 +242,6 @@ fn collapse_quality(st: &State, h: HalfedgeId, p: DVec3, stretch: f64) -> Option
                 return None;
             }
             worst = worst.min(triangle_quality(new));
-            worst_before = worst_before.min(triangle_quality(old));
             for (d, q) in near.iter_mut().zip([p0, p1]) {
                 // Once within the tolerance, a point needs no more faces.
                 if *d > tol2 {
@@ -266,8 +260,32 @@ fn collapse_quality(st: &State, h: HalfedgeId, p: DVec3, stretch: f64) -> Option
     // long edges are split) a collapse that removes the two worst faces
     // narrows some neighbour a little, and a per-face test then refused
     // nearly every collapse there.
-    if worst < MIN_QUALITY && worst < worst_before {
-        return None;
+    // The faces before are scored only when the guard can fail: the ring of
+    // the removed vertex holds both removed faces.
+    if worst < MIN_QUALITY {
+        // Each face read as the loop above reads it (from `v`), the removed
+        // ones in their own order, so the scores are the same to the bit.
+        let ring_worst = |v: VertexId| {
+            m.outgoing(v)
+                .filter(|&g| m.face(g).is_valid())
+                .map(|g| {
+                    let f = m.face(g);
+                    if removed.contains(&f) {
+                        triangle_quality(m.face_positions(f))
+                    } else {
+                        let (w, x) = (m.to_vertex(g), m.to_vertex(m.next(g)));
+                        triangle_quality([m.position(v), m.position(w), m.position(x)])
+                    }
+                })
+                .fold(f64::INFINITY, f64::min)
+        };
+        let mut before = ring_worst(v0);
+        if moved_v1 {
+            before = before.min(ring_worst(v1));
+        }
+        if worst < before {
+            return None;
+        }
     }
     Some(worst)
 }

@@ -30,19 +30,31 @@ import quality  # noqa: E402
 from meshload import load_mesh  # noqa: E402
 
 
-def sectors(V, F, angle):
+def feature_edges(V, F, angle):
+    """Sharp (dihedral above `angle`) and boundary edges, as an array and as
+    a set of sorted vertex pairs."""
     S = quality.sharp_edges(V, F, angle)
     B = quality.boundary_edges(F)
     E = np.vstack([S, B]) if len(B) else S
-    feature = set(map(tuple, np.sort(E, 1).tolist()))
-    degree = np.bincount(E.reshape(-1), minlength=len(V))
+    return E, set(map(tuple, np.sort(E, 1).tolist()))
+
+
+def corner_angles(V, F):
+    """The angle, in radians, at each corner of each triangle."""
     P = V[F]
-    corner_angle = np.zeros(F.shape)
+    out = np.zeros(F.shape)
     for i in range(3):
         a = P[:, (i + 1) % 3] - P[:, i]
         b = P[:, (i + 2) % 3] - P[:, i]
         n = np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1) + 1e-300
-        corner_angle[:, i] = np.arccos(np.clip((a * b).sum(1) / n, -1, 1))
+        out[:, i] = np.arccos(np.clip((a * b).sum(1) / n, -1, 1))
+    return out
+
+
+def sectors(V, F, angle):
+    E, feature = feature_edges(V, F, angle)
+    degree = np.bincount(E.reshape(-1), minlength=len(V))
+    corner_angle = corner_angles(V, F)
     around = {}
     for f, t in enumerate(F):
         for k in range(3):
@@ -77,17 +89,8 @@ def sectors(V, F, angle):
 def split_by_sector(V, F, angle):
     """Smallest angle per triangle, and whether it lies between two feature
     (sharp or boundary) edges of the mesh itself."""
-    S = quality.sharp_edges(V, F, angle)
-    B = quality.boundary_edges(F)
-    E = np.vstack([S, B]) if len(B) else S
-    feature = set(map(tuple, np.sort(E, 1).tolist()))
-    P = V[F]
-    ang = np.zeros(F.shape)
-    for i in range(3):
-        a = P[:, (i + 1) % 3] - P[:, i]
-        b = P[:, (i + 2) % 3] - P[:, i]
-        n = np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1) + 1e-300
-        ang[:, i] = np.degrees(np.arccos(np.clip((a * b).sum(1) / n, -1, 1)))
+    _, feature = feature_edges(V, F, angle)
+    ang = np.degrees(corner_angles(V, F))
     k = ang.argmin(1)
     in_sector = np.array([
         tuple(sorted((int(t[j]), int(t[(j + 1) % 3])))) in feature

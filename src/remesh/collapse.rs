@@ -259,12 +259,12 @@ fn collapse_quality(st: &State, h: HalfedgeId, p: DVec3, stretch: f64) -> Option
     // field of needles (the skinny strips of a CAD tessellation after their
     // long edges are split) a collapse that removes the two worst faces
     // narrows some neighbour a little, and a per-face test then refused
-    // nearly every collapse there.
-    // The faces before are scored only when the guard can fail: the ring of
-    // the removed vertex holds both removed faces.
+    // nearly every collapse there. The faces before are scored only when the
+    // guard can fail; the ring of the removed vertex holds both removed faces.
+    // A kept face is read from `v` and a removed one in its own order (the
+    // quality's rounding depends on the corner order; this is the order the
+    // README's figures were measured with).
     if worst < MIN_QUALITY {
-        // Each face read as the loop above reads it (from `v`), the removed
-        // ones in their own order, so the scores are the same to the bit.
         let ring_worst = |v: VertexId| {
             m.outgoing(v)
                 .filter(|&g| m.face(g).is_valid())

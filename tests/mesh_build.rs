@@ -163,6 +163,31 @@ fn bad_input_gives_typed_errors() {
         Mesh::from_trimesh(&m),
         Err(BuildError::NonFinite { vertex: 5, .. })
     ));
+    // Coordinates whose areas overflow, and a mesh whose areas underflow,
+    // are refused by name rather than reported as degenerate or remeshed
+    // with an infinite target.
+    let mut m = shapes::icosphere(1);
+    m.positions[4].z = -1e70;
+    assert!(matches!(
+        Mesh::from_trimesh(&m),
+        Err(BuildError::CoordinateTooLarge { vertex: 4, value }) if value == -1e70
+    ));
+    let mut m = shapes::icosphere(1);
+    for p in &mut m.positions {
+        *p *= 1e-70;
+    }
+    let err = Mesh::from_trimesh(&m).unwrap_err();
+    assert!(matches!(err, BuildError::TooSmall { diagonal } if diagonal < 1e-69));
+    assert!(err.to_string().contains("scale the mesh up"), "{err}");
+    // The limits leave the sizes users have alone: 1e-50 and 1e50 build.
+    for s in [1e-50, 1e50] {
+        let mut m = shapes::icosphere(1);
+        for p in &mut m.positions {
+            *p *= s;
+        }
+        let (mesh, report) = Mesh::from_trimesh(&m).unwrap();
+        assert_eq!((mesh.face_count(), report.degenerate_faces), (80, 0));
+    }
     let mut m = shapes::icosphere(1);
     m.triangles[2][1] = 1000;
     assert!(matches!(

@@ -69,6 +69,22 @@ pub enum BuildError {
         /// Its coordinates.
         z: f64,
     },
+    /// A coordinate is so large that squared lengths and areas overflow
+    /// `f64` (more than [`MAX_COORDINATE`] in magnitude).
+    #[error("a coordinate of vertex {vertex} is {value:e}, beyond ±{MAX_COORDINATE:e}, where areas overflow: scale the mesh down")]
+    CoordinateTooLarge {
+        /// Index of the offending vertex.
+        vertex: usize,
+        /// The coordinate.
+        value: f64,
+    },
+    /// The mesh is so small that its areas underflow `f64` (a bounding-box
+    /// diagonal below [`MIN_EXTENT`], but not a single point).
+    #[error("the mesh's bounding-box diagonal is {diagonal:e}, below {MIN_EXTENT:e}, where areas underflow: scale the mesh up")]
+    TooSmall {
+        /// The bounding-box diagonal.
+        diagonal: f64,
+    },
     /// A triangle refers to a vertex that does not exist.
     #[error(
         "triangle {face} refers to vertex {index}, but there are only {vertex_count} vertices"
@@ -94,6 +110,16 @@ pub enum BuildError {
 
 const NONE: u32 = u32::MAX;
 
+/// Largest accepted coordinate magnitude. A triangle's area comes from a
+/// cross product of coordinate differences, squared once more for its
+/// length: coordinates near 1e77 overflow that to infinity. 1e60 leaves a
+/// wide margin.
+pub const MAX_COORDINATE: f64 = 1e60;
+/// Smallest accepted bounding-box diagonal (for a mesh that is not a
+/// single point): below about 1e-77 the same fourth powers underflow to
+/// zero and every triangle looks degenerate.
+pub const MIN_EXTENT: f64 = 1e-60;
+
 impl Mesh {
     /// Builds a manifold, consistently oriented mesh from indexed triangles,
     /// repairing what can be repaired (see the module docs) and reporting it.
@@ -108,6 +134,32 @@ impl Mesh {
     ) -> Result<(Mesh, RepairReport), BuildError> {
         build(&TriMesh::new(positions.to_vec(), triangles.to_vec()))
     }
+}
+
+/// Refuses coordinates whose squared lengths or areas would overflow, and a
+/// mesh too small for its areas to be computable (all finite).
+fn check_scale(positions: &[DVec3]) -> Result<(), BuildError> {
+    if let Some((vertex, p)) = positions
+        .iter()
+        .enumerate()
+        .find(|(_, p)| p.abs().max_element() > MAX_COORDINATE)
+    {
+        let value = [p.x, p.y, p.z]
+            .into_iter()
+            .fold(0.0f64, |m, c| if c.abs() > m.abs() { c } else { m });
+        return Err(BuildError::CoordinateTooLarge { vertex, value });
+    }
+    let Some(&first) = positions.first() else {
+        return Ok(());
+    };
+    let (lo, hi) = positions
+        .iter()
+        .fold((first, first), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+    let diagonal = (hi - lo).length();
+    if diagonal > 0.0 && diagonal < MIN_EXTENT {
+        return Err(BuildError::TooSmall { diagonal });
+    }
+    Ok(())
 }
 
 fn build(input: &TriMesh) -> Result<(Mesh, RepairReport), BuildError> {
@@ -128,6 +180,7 @@ fn build(input: &TriMesh) -> Result<(Mesh, RepairReport), BuildError> {
             z: p.z,
         });
     }
+    check_scale(&input.positions)?;
     for (f, t) in input.triangles.iter().enumerate() {
         for &i in t {
             if i as usize >= n {

@@ -20,7 +20,7 @@ pub mod edit;
 mod handles;
 mod validate;
 
-pub use build::{BuildError, RepairReport};
+pub use build::{BuildError, RepairReport, MAX_COORDINATE, MIN_EXTENT};
 pub use compact::{scatter, Remap};
 pub use edit::{CollapseResult, SplitResult};
 pub use handles::{

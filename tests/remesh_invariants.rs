@@ -242,6 +242,22 @@ fn invalid_options_name_their_field() {
         remesh(&input, &tiny, &mut NoObserver),
         Err(RemeshError::TooManyFaces { .. })
     ));
+    // An estimate beyond u64 is reported as such, not saturated to a count.
+    let tinier = RemeshOptions::default().with_target_edge_length(1e-10);
+    match remesh(&input, &tinier, &mut NoObserver) {
+        Err(
+            e @ RemeshError::TooManyFaces {
+                estimated_faces, ..
+            },
+        ) => {
+            assert!(estimated_faces > 1e19, "{estimated_faces}");
+            assert!(
+                e.to_string().contains("e20 faces") || e.to_string().contains("e21 faces"),
+                "{e}"
+            );
+        }
+        other => panic!("expected TooManyFaces, got {:?}", other.map(|_| ())),
+    }
 }
 
 #[test]

@@ -113,12 +113,12 @@ pub enum RemeshError {
     #[error("the input mesh has no faces")]
     EmptyInput,
     /// The target length would create more faces than allowed.
-    #[error("the target edge length {target_edge_length} would create about {estimated_faces} faces, more than the limit of {limit}")]
+    #[error("the target edge length {target_edge_length} would create about {} faces, more than the limit of {limit}", face_count_text(*.estimated_faces))]
     TooManyFaces {
         /// The resolved target length.
         target_edge_length: f64,
-        /// Estimated faces, area / (√3/4 · L²).
-        estimated_faces: u64,
+        /// Estimated faces, area / (√3/4 · L²) (infinite for a zero length).
+        estimated_faces: f64,
         /// The configured limit.
         limit: u64,
     },
@@ -128,6 +128,16 @@ pub enum RemeshError {
     /// A bug: an invariant broke. Please report it with the input.
     #[error("internal error (a bug): {0}")]
     Internal(String),
+}
+
+/// A face estimate for a message: whole below 10¹⁵, in scientific notation
+/// above (a `u64` would saturate at 1.8·10¹⁹ and read as a real count).
+fn face_count_text(n: f64) -> String {
+    if n < 1e15 {
+        format!("{}", n.round())
+    } else {
+        format!("{n:.2e}")
+    }
 }
 
 /// Operation counts of one iteration.

@@ -740,11 +740,7 @@ fn check_estimate(area: f64, l: f64, limit: u64) -> Result<(), RemeshError> {
     if !(l > 0.0 && l.is_finite()) || est > limit as f64 {
         return Err(RemeshError::TooManyFaces {
             target_edge_length: l,
-            estimated_faces: if est.is_finite() {
-                est as u64
-            } else {
-                u64::MAX
-            },
+            estimated_faces: if est.is_nan() { f64::INFINITY } else { est },
             limit,
         });
     }

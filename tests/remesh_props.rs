@@ -51,3 +51,84 @@ proptest! {
         }
     }
 }
+
+/// A SplitMix64 step: the jitter's random numbers, seeded by proptest.
+fn next_unit(state: &mut u64) -> f64 {
+    *state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    let mut z = *state;
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+}
+
+/// `mesh` stretched per axis and with every vertex moved by up to
+/// `amount` of the mean edge length in a random direction: rough,
+/// anisotropic input with creases everywhere, unlike the clean shapes.
+fn roughened(mut mesh: TriMesh, amount: f64, stretch: DVec3, seed: u64) -> TriMesh {
+    let mut total = 0.0;
+    for t in &mesh.triangles {
+        for k in 0..3 {
+            let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
+            total += mesh.positions[a].distance(mesh.positions[b]);
+        }
+    }
+    let mean = total / (3 * mesh.triangles.len()) as f64;
+    let mut state = seed;
+    for p in &mut mesh.positions {
+        let d = DVec3::new(
+            next_unit(&mut state) - 0.5,
+            next_unit(&mut state) - 0.5,
+            next_unit(&mut state) - 0.5,
+        );
+        *p = (*p + 2.0 * amount * mean * d) * stretch;
+    }
+    mesh
+}
+
+proptest! {
+    // PROPTEST_CASES=N runs more cases (a longer local search).
+    #![proptest_config(ProptestConfig {
+        cases: std::env::var("PROPTEST_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(32),
+        ..ProptestConfig::default()
+    })]
+
+    #[test]
+    fn rough_stretched_shapes_with_any_sizing_give_valid_output(
+        kind in 0u8..6,
+        n in 0u32..5,
+        amount in 0.0f64..0.45,
+        sx in 0.2f64..5.0,
+        sz in 0.2f64..5.0,
+        seed in any::<u64>(),
+        ratio in 0.02f64..0.2,
+        iterations in 1u32..6,
+        adaptive in any::<bool>(),
+        features in any::<bool>(),
+        collapse in any::<bool>(),
+        relax in any::<bool>(),
+    ) {
+        let rough = roughened(shape(kind, n), amount, DVec3::new(sx, 1.0, sz), seed);
+        let (input, _) = Mesh::from_trimesh(&rough).unwrap();
+        let mut o = RemeshOptions::default()
+            .with_target_edge_ratio(ratio)
+            .with_iterations(iterations)
+            .with_preserve_features(features);
+        if adaptive {
+            // The lengths come from the tolerance: L ≈ √(6ε/κ).
+            o.sizing = isoremesh::remesh::Sizing::Adaptive;
+            o.target_edge_ratio = None;
+            o.tolerance_ratio = Some(ratio * ratio);
+        }
+        o.collapse = collapse;
+        o.relax = relax;
+        let out = remesh(&input, &o, &mut NoObserver).unwrap();
+        prop_assert!(out.mesh.validate().is_ok(), "{:?}", out.mesh.validate());
+        prop_assert_eq!(out.mesh.euler_characteristic(), input.euler_characteristic());
+        prop_assert_eq!(out.mesh.boundary_loop_count(), input.boundary_loop_count());
+        let t = out.mesh.to_trimesh();
+        let diag = t.bbox_diagonal();
+        for tri in &t.triangles {
+            prop_assert!(isoremesh::geometry::triangle_area(t.corner_positions(tri)) > 1e-12 * diag * diag);
+        }
+    }
+}

@@ -31,6 +31,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::flip::Valences;
 use super::split::DEVIATION_FACTOR;
 use super::state::{State, COLLAPSE_FACTOR, CORNER, SMOOTH, SPLIT_FACTOR};
 use super::RemeshError;
@@ -349,17 +350,18 @@ fn valence_collapse_gain(
 /// whose valence changed (ascending), for a following flip sweep.
 pub(super) fn collapse_for_valence(
     st: &mut State,
+    valences: &mut Valences,
     cancelled: &dyn Fn() -> bool,
 ) -> Result<(u64, Vec<u32>), RemeshError> {
-    // Candidates from the valences at the start, found in parallel.
+    // Candidates from the valences at the start, found in parallel (counted
+    // up to 16, as `regularity` counts them).
     let candidates: Vec<u32> = {
         let st_ref: &State = st;
+        let lookup = |v: VertexId| Regularity {
+            valence: valences.valence[v.idx()].min(16),
+            target: valences.target[v.idx()],
+        };
         st.pool.install(|| {
-            let reg: Vec<Regularity> = (0..st_ref.mesh.vertex_capacity() as u32)
-                .into_par_iter()
-                .map(|i| regularity(st_ref, VertexId(i)))
-                .collect();
-            let lookup = |v: VertexId| reg[v.idx()];
             (0..st_ref.mesh.edge_capacity() as u32)
                 .into_par_iter()
                 .filter(|&i| {
@@ -395,6 +397,13 @@ pub(super) fn collapse_for_valence(
         let (kept, removed) = (r.kept.idx(), r.removed.idx());
         st.size[kept] = st.size[kept].min(st.size[removed]);
         count += 1;
+        // An interior collapse: c and d each lose the edge to the removed
+        // vertex, which merges with their edge to the kept one.
+        valences.valence[kept] = st.mesh.valence(r.kept) as i32;
+        valences.valence[removed] = 0;
+        valences.target[removed] = 6;
+        valences.valence[c.idx()] -= 1;
+        valences.valence[d.idx()] -= 1;
         for v in [r.kept, c, d] {
             touched.extend(st.mesh.outgoing(v).map(|g| g.edge().0));
         }

@@ -39,16 +39,22 @@ const MAX_SWEEPS: usize = 6;
 /// the triangle's longest edge.
 const REPAIR_COS: f64 = 0.866_025_403_784_438_6;
 
-/// Flips edges; returns the number of flips. The first sweep visits every
-/// edge, or only the edges of `seed` (ascending edge indices) when given.
-pub(super) fn flip_edges(
-    st: &mut State,
-    seed: Option<Vec<u32>>,
-    cancelled: &dyn Fn() -> bool,
-) -> Result<u64, RemeshError> {
-    let (mut valence, target): (Vec<i32>, Vec<i32>) = {
+/// Every vertex's valence and valence target (4 on the boundary, 6
+/// elsewhere; a deleted vertex counts as 0 of 6), computed once per
+/// iteration and kept current by the flip sweeps and the valence-driven
+/// collapses between them, instead of being counted again by each.
+pub(super) struct Valences {
+    /// Per vertex: the number of edges at it.
+    pub valence: Vec<i32>,
+    /// Per vertex: 4 on the boundary, 6 elsewhere.
+    pub target: Vec<i32>,
+}
+
+impl Valences {
+    /// Counts every vertex's valence, in parallel.
+    pub fn of(st: &State) -> Self {
         let m = &st.mesh;
-        st.pool.install(|| {
+        let (valence, target) = st.pool.install(|| {
             (0..m.vertex_capacity() as u32)
                 .into_par_iter()
                 .map(|i| {
@@ -61,8 +67,28 @@ pub(super) fn flip_edges(
                     }
                 })
                 .unzip()
-        })
-    };
+        });
+        Self { valence, target }
+    }
+}
+
+/// Flips edges; returns the number of flips. The first sweep visits every
+/// edge, or only the edges of `seed` (ascending edge indices) when given.
+/// `valences` must be current on entry and is kept current.
+pub(super) fn flip_edges(
+    st: &mut State,
+    valences: &mut Valences,
+    seed: Option<Vec<u32>>,
+    cancelled: &dyn Fn() -> bool,
+) -> Result<u64, RemeshError> {
+    debug_assert!(
+        {
+            let fresh = Valences::of(st);
+            fresh.valence == valences.valence && fresh.target == valences.target
+        },
+        "the valence table is stale"
+    );
+    let (valence, target) = (&mut valences.valence, &valences.target);
     let mut count = 0u64;
     // The first sweep visits every edge (or the seed); later sweeps only the
     // edges around the quads that changed, in index order (deterministic).
@@ -73,7 +99,7 @@ pub(super) fn flip_edges(
     // quad vertices is dirty; the others are decided again in turn. The
     // result is the same as deciding every candidate in turn.
     let mut work: Vec<(u32, Option<bool>)> = {
-        let (valence, target) = (&valence, &target);
+        let valence: &[i32] = valence;
         match seed {
             Some(seed) => st.pool.install(|| {
                 seed.par_iter()
@@ -107,7 +133,7 @@ pub(super) fn flip_edges(
             let q = quad(&st.mesh, e.halfedge(0));
             let wanted = match decided {
                 Some(w) if !q.iter().any(|v| dirty[v.idx()]) => w,
-                _ => flip_wanted_quad(st, e, q, deviation_change(&valence, &target, q)),
+                _ => flip_wanted_quad(st, e, q, deviation_change(valence, target, q)),
             };
             if !wanted {
                 continue;

@@ -310,15 +310,19 @@ fn run(
         if options.flip {
             notify(observer, it, Pass::Flip)?;
             let t = Instant::now();
-            ir.flips = flip::flip_edges(&mut st, None, &|| observer.is_cancelled())?;
+            let mut valences = flip::Valences::of(&st);
+            ir.flips = flip::flip_edges(&mut st, &mut valences, None, &|| observer.is_cancelled())?;
             if options.collapse {
                 // Merge the irregular pairs flips cannot fix, then flip again
                 // around the merged vertices.
-                let (n, seed) =
-                    collapse::collapse_for_valence(&mut st, &|| observer.is_cancelled())?;
+                let (n, seed) = collapse::collapse_for_valence(&mut st, &mut valences, &|| {
+                    observer.is_cancelled()
+                })?;
                 ir.collapses += n;
                 if n > 0 {
-                    ir.flips += flip::flip_edges(&mut st, Some(seed), &|| observer.is_cancelled())?;
+                    ir.flips += flip::flip_edges(&mut st, &mut valences, Some(seed), &|| {
+                        observer.is_cancelled()
+                    })?;
                 }
             }
             report.seconds.flip += t.elapsed().as_secs_f64();

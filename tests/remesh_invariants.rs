@@ -328,3 +328,48 @@ fn the_final_shape_pass_leaves_fandisk_almost_no_triangle_below_30_degrees() {
     assert!(a.min_deg >= 19.0, "min angle {}", a.min_deg);
     assert!(s.edge_length.as_ref().unwrap().within_band >= 0.98);
 }
+
+#[test]
+fn the_report_counts_and_times_every_iteration() {
+    let input = data_support::mesh("spot.obj");
+    let l = 0.0075 * input.to_trimesh().bbox_diagonal();
+    let options = RemeshOptions::default()
+        .with_target_edge_length(l)
+        .with_iterations(4);
+    let out = remesh(&input, &options, &mut NoObserver).unwrap();
+    let r = &out.report;
+    assert_eq!(r.iterations.len(), 4);
+    // spot's 5,856 input faces are coarse for this L: the first iteration
+    // splits most, and the face count settles.
+    assert!(r.iterations[0].splits > 10 * r.iterations[3].splits.max(1));
+    assert_eq!(r.iterations[3].faces, out.mesh.face_count() as u64);
+    // Per-iteration times are differences of the running totals: they are
+    // non-negative and add up to the totals, except the flip total, which
+    // also holds the final sliver repair after the last iteration.
+    let sum = |f: fn(&isoremesh::remesh::PassTimes) -> f64| {
+        r.iterations.iter().map(|i| f(&i.seconds)).sum::<f64>()
+    };
+    for (name, per, total) in [
+        ("split", sum(|t| t.split), r.seconds.split),
+        ("collapse", sum(|t| t.collapse), r.seconds.collapse),
+        ("relax", sum(|t| t.relax), r.seconds.relax),
+        ("project", sum(|t| t.project), r.seconds.project),
+    ] {
+        assert!(
+            (per - total).abs() <= 1e-9 * total.max(1.0),
+            "{name}: {per} vs {total}"
+        );
+    }
+    assert!(sum(|t| t.flip) <= r.seconds.flip + 1e-9);
+    assert!(r.iterations.iter().all(|i| {
+        let t = i.seconds;
+        t.prepare == 0.0
+            && [t.split, t.collapse, t.flip, t.relax, t.project]
+                .iter()
+                .all(|&x| x >= 0.0)
+    }));
+    assert!(r
+        .iterations
+        .iter()
+        .all(|i| i.seconds.split > 0.0 && i.seconds.project > 0.0));
+}

@@ -140,7 +140,7 @@ fn face_count_text(n: f64) -> String {
     }
 }
 
-/// Operation counts of one iteration.
+/// Operation counts and pass times of one iteration.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct IterationReport {
     /// Edges split.
@@ -158,6 +158,10 @@ pub struct IterationReport {
     pub project_moves_limited: u64,
     /// Faces at the end of the iteration.
     pub faces: u64,
+    /// Seconds per pass in this iteration (`prepare` is 0; the final sliver
+    /// repair after the last iteration counts only in the report's total).
+    #[serde(default)]
+    pub seconds: PassTimes,
 }
 
 /// Seconds spent in each pass, summed over iterations.
@@ -175,6 +179,20 @@ pub struct PassTimes {
     pub relax: f64,
     /// Projection.
     pub project: f64,
+}
+
+impl PassTimes {
+    /// The time spent in each pass since `earlier` was taken.
+    fn since(&self, earlier: &PassTimes) -> PassTimes {
+        PassTimes {
+            prepare: self.prepare - earlier.prepare,
+            split: self.split - earlier.split,
+            collapse: self.collapse - earlier.collapse,
+            flip: self.flip - earlier.flip,
+            relax: self.relax - earlier.relax,
+            project: self.project - earlier.project,
+        }
+    }
 }
 
 /// What a remesh did.
@@ -290,6 +308,7 @@ fn run(
     let mut renumbered = false;
     for it in 1..=iterations {
         let mut ir = IterationReport::default();
+        let before = report.seconds;
         if options.split {
             notify(observer, it, Pass::Split)?;
             let t = Instant::now();
@@ -354,6 +373,7 @@ fn run(
             }
         }
         ir.faces = st.mesh.face_count() as u64;
+        ir.seconds = report.seconds.since(&before);
         if it == 1 && !renumbered {
             st.renumber();
         }

@@ -18,6 +18,31 @@ fn shape(k: u8, n: u32) -> TriMesh {
     }
 }
 
+/// The first invariant the remeshed `out` breaks against `input`:
+/// validity, the Euler characteristic, the boundary loops, or a degenerate
+/// face (area at most 1e-12 of the squared diagonal).
+fn broken_invariant(input: &Mesh, out: &Mesh) -> Option<String> {
+    if let Err(e) = out.validate() {
+        return Some(format!("invalid output: {e:?}"));
+    }
+    let chi = (input.euler_characteristic(), out.euler_characteristic());
+    if chi.0 != chi.1 {
+        return Some(format!("Euler characteristic {} -> {}", chi.0, chi.1));
+    }
+    let loops = (input.boundary_loop_count(), out.boundary_loop_count());
+    if loops.0 != loops.1 {
+        return Some(format!("boundary loops {} -> {}", loops.0, loops.1));
+    }
+    let t = out.to_trimesh();
+    let diag = t.bbox_diagonal();
+    t.triangles
+        .iter()
+        .position(|tri| {
+            isoremesh::geometry::triangle_area(t.corner_positions(tri)) <= 1e-12 * diag * diag
+        })
+        .map(|f| format!("face {f} is degenerate"))
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
 
@@ -41,14 +66,8 @@ proptest! {
         o.relaxation_steps = relax_steps;
         o.flip = flip;
         let out = remesh(&input, &o, &mut NoObserver).unwrap();
-        prop_assert!(out.mesh.validate().is_ok());
-        prop_assert_eq!(out.mesh.euler_characteristic(), input.euler_characteristic());
-        prop_assert_eq!(out.mesh.boundary_loop_count(), input.boundary_loop_count());
-        let t = out.mesh.to_trimesh();
-        let diag = t.bbox_diagonal();
-        for tri in &t.triangles {
-            prop_assert!(isoremesh::geometry::triangle_area(t.corner_positions(tri)) > 1e-12 * diag * diag);
-        }
+        let broken = broken_invariant(&input, &out.mesh);
+        prop_assert!(broken.is_none(), "{}", broken.unwrap_or_default());
     }
 }
 
@@ -122,13 +141,7 @@ proptest! {
         o.collapse = collapse;
         o.relax = relax;
         let out = remesh(&input, &o, &mut NoObserver).unwrap();
-        prop_assert!(out.mesh.validate().is_ok(), "{:?}", out.mesh.validate());
-        prop_assert_eq!(out.mesh.euler_characteristic(), input.euler_characteristic());
-        prop_assert_eq!(out.mesh.boundary_loop_count(), input.boundary_loop_count());
-        let t = out.mesh.to_trimesh();
-        let diag = t.bbox_diagonal();
-        for tri in &t.triangles {
-            prop_assert!(isoremesh::geometry::triangle_area(t.corner_positions(tri)) > 1e-12 * diag * diag);
-        }
+        let broken = broken_invariant(&input, &out.mesh);
+        prop_assert!(broken.is_none(), "{}", broken.unwrap_or_default());
     }
 }

@@ -159,12 +159,14 @@ pub struct IterationReport {
     /// Faces at the end of the iteration.
     pub faces: u64,
     /// Seconds per pass in this iteration (`prepare` is 0; the final sliver
-    /// repair after the last iteration counts only in the report's total).
+    /// repair after the last iteration counts only in the report's
+    /// [`RemeshReport::seconds`], under `flip`).
     #[serde(default)]
     pub seconds: PassTimes,
 }
 
-/// Seconds spent in each pass, summed over iterations.
+/// Seconds spent in each pass: per iteration in [`IterationReport::seconds`],
+/// summed over the run in [`RemeshReport::seconds`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct PassTimes {
     /// Building the index, features and sizing.

@@ -291,32 +291,27 @@ fn collapse_quality(st: &State, h: HalfedgeId, p: DVec3, stretch: f64) -> Option
     Some(worst)
 }
 
-/// Valence (counted up to 16) and valence target (4 on the boundary, 6
-/// elsewhere) of a vertex.
+/// Valence (capped at 16: past that a vertex fails [`valence_ok`] anyway)
+/// and valence target (4 on the boundary, 6 elsewhere) of a vertex, read
+/// off the iteration's valence table.
 #[derive(Clone, Copy)]
 struct Regularity {
     valence: i32,
     target: i32,
 }
 
-fn regularity(st: &State, v: VertexId) -> Regularity {
-    let m = &st.mesh;
+fn regularity(valences: &Valences, v: VertexId) -> Regularity {
     Regularity {
-        valence: m.outgoing(v).take(16).count() as i32,
-        target: if m.is_boundary_vertex(v) { 4 } else { 6 },
+        valence: valences.valence[v.idx()].min(16),
+        target: valences.target[v.idx()],
     }
 }
 
 /// The drop in valence energy (sum of squared deviations from the targets
 /// over the end points and opposite corners) if interior edge `e` between
 /// two smooth interior vertices were collapsed; `None` for any other edge.
-/// `reg` gives each vertex's valence and target. Valences are counted up to
-/// 16, so the cost is O(1) at fan centres (which fail [`valence_ok`] anyway).
-fn valence_collapse_gain(
-    st: &State,
-    e: EdgeId,
-    reg: impl Fn(VertexId) -> Regularity,
-) -> Option<i32> {
+/// `valences` must be current.
+fn valence_collapse_gain(st: &State, e: EdgeId, valences: &Valences) -> Option<i32> {
     let m = &st.mesh;
     if m.is_edge_deleted(e) || m.is_boundary_edge(e) {
         return None;
@@ -327,11 +322,14 @@ fn valence_collapse_gain(
     if st.kind[a.idx()] != SMOOTH || st.kind[b.idx()] != SMOOTH {
         return None;
     }
-    let (ra, rb) = (reg(a), reg(b));
+    let (ra, rb) = (regularity(valences, a), regularity(valences, b));
     if ra.target != 6 || rb.target != 6 {
         return None;
     }
-    let (rc, rd) = (reg(m.to_vertex(m.next(h))), reg(m.to_vertex(m.next(o))));
+    let (rc, rd) = (
+        regularity(valences, m.to_vertex(m.next(h))),
+        regularity(valences, m.to_vertex(m.next(o))),
+    );
     let sq = |x: i32| x * x;
     let before = sq(ra.valence - 6)
         + sq(rb.valence - 6)
@@ -353,20 +351,13 @@ pub(super) fn collapse_for_valence(
     valences: &mut Valences,
     cancelled: &dyn Fn() -> bool,
 ) -> Result<(u64, Vec<u32>), RemeshError> {
-    // Candidates from the valences at the start, found in parallel (counted
-    // up to 16, as `regularity` counts them).
+    // Candidates from the valences at the start, found in parallel.
     let candidates: Vec<u32> = {
-        let st_ref: &State = st;
-        let lookup = |v: VertexId| Regularity {
-            valence: valences.valence[v.idx()].min(16),
-            target: valences.target[v.idx()],
-        };
+        let (st_ref, table): (&State, &Valences) = (st, valences);
         st.pool.install(|| {
             (0..st_ref.mesh.edge_capacity() as u32)
                 .into_par_iter()
-                .filter(|&i| {
-                    valence_collapse_gain(st_ref, EdgeId(i), lookup).is_some_and(|g| g > 0)
-                })
+                .filter(|&i| valence_collapse_gain(st_ref, EdgeId(i), table).is_some_and(|g| g > 0))
                 .collect()
         })
     };
@@ -378,8 +369,7 @@ pub(super) fn collapse_for_valence(
         }
         // Earlier collapses change valences nearby: check again.
         let e = EdgeId(i);
-        let live = |v: VertexId| regularity(st, v);
-        if valence_collapse_gain(st, e, live).is_none_or(|g| g <= 0) {
+        if valence_collapse_gain(st, e, valences).is_none_or(|g| g <= 0) {
             continue;
         }
         let h = e.halfedge(0);

@@ -10,8 +10,9 @@
 #   `localhost/debian:bookworm-slim` with debootstrap, because no registry can
 #   be reached here (see README "Container").
 #
-# It never fails CI: if something cannot be installed (apt down, not root),
-# it says so and exits 0, and the container test then skips with a message.
+# It fails (exit 1, with the reason on stderr) when something cannot be
+# installed, so that CI stops there rather than skipping the container test.
+# On success it prints one line.
 set -uo pipefail
 export DEBIAN_FRONTEND=noninteractive
 
@@ -19,6 +20,8 @@ BASE_IMAGE="${ISOREMESH_CI_BASE_IMAGE:-localhost/debian:bookworm-slim}"
 SUITE="${ISOREMESH_CI_SUITE:-bookworm}"
 
 say() { echo "install-container-tools: $*" >&2; }
+fail() { say "FAILED: $*"; exit 1; }
+log=/tmp/isoremesh-install-container-tools.log
 
 # Runs "$@" up to 4 times, 10 s apart: a mirror that is briefly unavailable
 # should not turn into a skipped test.
@@ -33,32 +36,30 @@ retry() {
 }
 
 if docker info >/dev/null 2>&1; then
-    say "a Docker engine answers; nothing to install"
+    echo "install-container-tools: a Docker engine answers; nothing to install"
     exit 0
 fi
 
 if [ "$(id -u)" != 0 ]; then
-    say "not root: cannot install podman; the container test will skip unless an engine is present"
-    exit 0
+    fail "not root and no Docker engine: cannot install podman"
 fi
 
+installed=""
 need=()
 command -v podman >/dev/null 2>&1 || need+=(podman)
 command -v runc >/dev/null 2>&1 || need+=(runc)
 command -v debootstrap >/dev/null 2>&1 || need+=(debootstrap)
 if [ "${#need[@]}" -gt 0 ]; then
     if ! command -v apt-get >/dev/null 2>&1; then
-        say "no apt-get; cannot install ${need[*]}"
-        exit 0
+        fail "no apt-get; cannot install ${need[*]}"
     fi
-    say "installing ${need[*]}"
-    if ! retry apt-get update -q; then
+    if ! retry apt-get update -q >>"$log" 2>&1; then
         say "apt-get update failed; trying the install anyway"
     fi
-    if ! retry apt-get install -y -q --no-install-recommends "${need[@]}" ca-certificates; then
-        say "could not install ${need[*]}; the container test will skip"
-        exit 0
+    if ! retry apt-get install -y -q --no-install-recommends "${need[@]}" ca-certificates >>"$log" 2>&1; then
+        fail "could not install ${need[*]} (log: $log)"
     fi
+    installed="installed ${need[*]}; "
 fi
 
 # crun (podman's default runtime) fails on these machines, and so do the
@@ -68,25 +69,22 @@ conf=/etc/containers/containers.conf
 mkdir -p /etc/containers
 if [ ! -e "$conf" ]; then
     printf '[containers]\ndefault_ulimits = []\n' >"$conf"
-    say "wrote $conf"
 elif ! grep -q '^[[:space:]]*default_ulimits' "$conf"; then
     if grep -q '^\[containers\]' "$conf"; then
         sed -i 's/^\[containers\]$/[containers]\ndefault_ulimits = []/' "$conf"
     else
         printf '\n[containers]\ndefault_ulimits = []\n' >>"$conf"
     fi
-    say "added default_ulimits = [] to $conf"
 fi
 
 # The local base image stands in for debian:bookworm-slim. The image itself is
 # the marker: once it exists this step is skipped.
 if podman image exists "$BASE_IMAGE"; then
-    say "$BASE_IMAGE present"
+    echo "install-container-tools: ${installed}podman, runc and $BASE_IMAGE present"
     exit 0
 fi
 rootfs="$(mktemp -d /tmp/isoremesh-rootfs.XXXXXX)"
 trap 'rm -rf "$rootfs"' EXIT
-say "creating $BASE_IMAGE with debootstrap (about a minute)"
 # debootstrap leaves a half-made tree behind when a download fails; each
 # attempt starts from an empty directory.
 attempt() {
@@ -94,15 +92,12 @@ attempt() {
         debootstrap --variant=minbase "$SUITE" "$rootfs" >/tmp/isoremesh-debootstrap.log 2>&1
 }
 if ! retry attempt; then
-    say "debootstrap failed (log: /tmp/isoremesh-debootstrap.log); the container test will fail to build"
-    exit 0
+    fail "debootstrap failed (log: /tmp/isoremesh-debootstrap.log)"
 fi
 # Trim what a container never uses, as the official slim image does.
 rm -rf "$rootfs"/var/cache/apt/archives/*.deb "$rootfs"/var/lib/apt/lists/* \
     "$rootfs"/usr/share/doc/* "$rootfs"/usr/share/man/* "$rootfs"/usr/share/locale/*
-if tar -C "$rootfs" -c . | podman import - "$BASE_IMAGE" >/dev/null; then
-    say "imported $BASE_IMAGE"
-else
-    say "podman import failed"
+if ! tar -C "$rootfs" -c . | podman import - "$BASE_IMAGE" >/dev/null; then
+    fail "podman import of $BASE_IMAGE failed"
 fi
-exit 0
+echo "install-container-tools: ${installed}created $BASE_IMAGE with debootstrap"

@@ -12,11 +12,14 @@
 //! The Dockerfile itself is the one users get; only its `BUILDER_IMAGE` /
 //! `RUNTIME_IMAGE` build arguments change.
 //!
-//! Only a missing engine (or base image that cannot be had) skips the test,
-//! and it says so on stderr past the test harness's capture.
-//! `ISOREMESH_CONTAINER_TEST=skip` skips on purpose; `=require` turns any
-//! skip into a failure. `ISOREMESH_TEST_BUILDER_IMAGE` /
+//! A missing engine (or a base image that cannot be had) follows the
+//! real-part rule of `tests/real_part`: under CI it fails the test, naming
+//! what is missing and how to install it; elsewhere it skips and says so.
+//! `ISOREMESH_CONTAINER_TEST=skip` skips on purpose outside CI; `=require`
+//! turns any skip into a failure. `ISOREMESH_TEST_BUILDER_IMAGE` /
 //! `ISOREMESH_TEST_RUNTIME_IMAGE` override the base images.
+
+mod real_part;
 
 use std::io::Write;
 use std::net::TcpListener;
@@ -66,12 +69,14 @@ fn note(msg: &str) {
     let _ = writeln!(std::io::stderr(), "container test: {msg}");
 }
 
-fn skip(reason: &str) {
-    if std::env::var("ISOREMESH_CONTAINER_TEST").as_deref() == Ok("require") {
-        panic!("ISOREMESH_CONTAINER_TEST=require but the test cannot run: {reason}");
-    }
-    note(&format!("SKIPPED: {reason}"));
-}
+/// The part this suite needs, under the real-part rule.
+const CONTAINER_ENGINE: real_part::Part = real_part::Part {
+    suite: "container",
+    what: "a container engine (docker, or rootful podman with runc) and its base images",
+    override_var: "ISOREMESH_CONTAINER_TEST",
+    install:
+        "run .ci/install-container-tools.sh as root (podman, runc, and a debootstrapped base image)",
+};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Kind {
@@ -326,17 +331,12 @@ fn repo_root() -> &'static Path {
 
 #[test]
 fn image_builds_serves_a_job_and_stops_cleanly_on_sigterm() {
-    if std::env::var("ISOREMESH_CONTAINER_TEST").as_deref() == Ok("skip") {
-        skip("ISOREMESH_CONTAINER_TEST=skip");
+    let Some(((engine, bases), _run)) = CONTAINER_ENGINE.acquire(|| {
+        let engine = Engine::detect()?;
+        let bases = choose_bases(engine)?;
+        Ok((engine, bases))
+    }) else {
         return;
-    }
-    let engine = match Engine::detect() {
-        Ok(e) => e,
-        Err(reason) => return skip(&reason),
-    };
-    let bases = match choose_bases(engine) {
-        Ok(b) => b,
-        Err(reason) => return skip(&reason),
     };
     let total = Instant::now();
     note(&format!(

@@ -97,7 +97,7 @@ fi
 # Trim what a container never uses, as the official slim image does.
 rm -rf "$rootfs"/var/cache/apt/archives/*.deb "$rootfs"/var/lib/apt/lists/* \
     "$rootfs"/usr/share/doc/* "$rootfs"/usr/share/man/* "$rootfs"/usr/share/locale/*
-if ! tar -C "$rootfs" -c . | podman import - "$BASE_IMAGE" >/dev/null; then
+if ! tar -C "$rootfs" -c . | podman import - "$BASE_IMAGE" >/dev/null 2>>"$log"; then
     fail "podman import of $BASE_IMAGE failed"
 fi
 echo "install-container-tools: ${installed}created $BASE_IMAGE with debootstrap"

@@ -36,6 +36,7 @@
 //! a torus tube has a negative k2. `k1 ≥ k2` by value; `dir1`, `dir2` are
 //! the unit principal directions, tangent to the sector normal.
 
+use crate::topology::UnionFind;
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -225,24 +226,6 @@ fn prev(c: u32) -> u32 {
     }
 }
 
-fn find(parent: &mut [u32], mut x: u32) -> u32 {
-    while parent[x as usize] != x {
-        let p = parent[x as usize];
-        parent[x as usize] = parent[p as usize];
-        x = p;
-    }
-    x
-}
-
-fn union(parent: &mut [u32], a: u32, b: u32) {
-    let (ra, rb) = (find(parent, a), find(parent, b));
-    if ra != rb {
-        // Keep the smaller id as root so roots are deterministic.
-        let (lo, hi) = (ra.min(rb), ra.max(rb));
-        parent[hi as usize] = lo;
-    }
-}
-
 /// Counting-sort prefix sums: turns per-bucket counts stored at `start[b+1]`
 /// into offsets.
 fn prefix_sum(start: &mut [u32]) {
@@ -310,7 +293,7 @@ impl Topology {
             }
         }
 
-        let mut parent: Vec<u32> = (0..3 * nf as u32).collect();
+        let mut sectors = UnionFind::new(3 * nf);
         let mut curve_edges = Vec::new();
         let mut smooth_edges = Vec::new();
         for lo in 0..nv {
@@ -341,8 +324,8 @@ impl Topology {
                                     next(h.corner)
                                 }
                             };
-                            union(&mut parent, at(h0, lo), at(h1, lo));
-                            union(&mut parent, at(h0, hi), at(h1, hi));
+                            sectors.union(at(h0, lo), at(h1, lo));
+                            sectors.union(at(h0, hi), at(h1, hi));
                             smooth_edges.push([lo, hi, h0.corner / 3, h1.corner / 3]);
                         }
                     }
@@ -374,11 +357,7 @@ impl Topology {
             }
         }
         drop(fill);
-        for c in 0..parent.len() as u32 {
-            let r = find(&mut parent, c);
-            parent[c as usize] = r;
-        }
-        let root = parent;
+        let root = sectors.into_roots();
         let mut corner_sector = vec![NONE; 3 * nf];
         let mut sector_start = Vec::with_capacity(nv + 1);
         let mut vertex_sector_start = Vec::with_capacity(nv + 1);

@@ -36,6 +36,7 @@ pub mod service;
 pub mod shapes;
 pub mod sizing;
 pub mod stats;
+pub mod topology;
 pub mod trimesh;
 
 pub use trimesh::{Label, Material, TriMesh};

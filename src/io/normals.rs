@@ -13,6 +13,7 @@
 //! is expected to share vertices (welded); an unwelded soup gets flat
 //! shading, because no edge is interior.
 
+use crate::topology::UnionFind;
 use std::collections::HashSet;
 
 use glam::DVec3;
@@ -24,24 +25,6 @@ use crate::TriMesh;
 fn edge_key(a: u32, b: u32) -> u64 {
     let (lo, hi) = if a < b { (a, b) } else { (b, a) };
     (u64::from(lo) << 32) | u64::from(hi)
-}
-
-fn find(parent: &mut [u32], mut x: u32) -> u32 {
-    while parent[x as usize] != x {
-        let grand = parent[parent[x as usize] as usize];
-        parent[x as usize] = grand;
-        x = grand;
-    }
-    x
-}
-
-fn union(parent: &mut [u32], a: u32, b: u32) {
-    let (ra, rb) = (find(parent, a), find(parent, b));
-    if ra != rb {
-        // Smaller root wins, so each class's root is its first corner.
-        let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
-        parent[hi as usize] = lo;
-    }
 }
 
 /// Returns a copy of `mesh` whose vertices are duplicated per smooth fan and
@@ -138,11 +121,11 @@ pub fn with_split_normals(
             flat_enough.then_some((c as u32, twin))
         })
         .collect();
-    let mut parent: Vec<u32> = (0..corners as u32).collect();
+    let mut fans = UnionFind::new(corners);
     let next = |c: u32| 3 * (c / 3) + (c % 3 + 1) % 3;
     for &(c, twin) in &pairs {
-        union(&mut parent, c, next(twin)); // the two corners at a
-        union(&mut parent, next(c), twin); // the two corners at b
+        fans.union(c, next(twin)); // the two corners at a
+        fans.union(next(c), twin); // the two corners at b
     }
 
     // Number the classes: the first class met at a vertex keeps its index.
@@ -150,7 +133,7 @@ pub fn with_split_normals(
     let mut taken = vec![false; n];
     let mut positions = mesh.positions.clone();
     for c in 0..corners {
-        let r = find(&mut parent, c as u32) as usize;
+        let r = fans.find(c as u32) as usize;
         if class_vertex[r] != u32::MAX {
             continue;
         }
@@ -169,7 +152,7 @@ pub fn with_split_normals(
     for (f, (cross, unit, angles)) in per_face.iter().enumerate() {
         let mut t = [0u32; 3];
         for (k, slot) in t.iter_mut().enumerate() {
-            let r = find(&mut parent, (3 * f + k) as u32) as usize;
+            let r = fans.find((3 * f + k) as u32) as usize;
             let v = class_vertex[r];
             *slot = v;
             angle_sum[v as usize] += angles[k] * *unit;

@@ -9,7 +9,7 @@
 //! [`VERY_SHORT_STRETCH`] times that for a smooth interior edge under half
 //! its target, under uniform sizing), the shape guard (no face of the
 //! one-ring flips or degenerates, and the one-ring's worst face, the two
-//! removed faces included, does not get worse below [`MIN_QUALITY`]) and
+//! removed faces included, does not get worse below [`COLLAPSE_MIN_QUALITY`](super::guards::COLLAPSE_MIN_QUALITY)) and
 //! the deviation guard (the new one-ring passes within
 //! [`DEVIATION_FACTOR`] times the target of where the removed vertex, and a
 //! moved kept vertex, were: vertices lie on the input, so a collapse that
@@ -32,18 +32,14 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::flip::Valences;
+use super::guards::{COLLAPSE_MAX_NORMAL_TURN_COS, COLLAPSE_MIN_QUALITY};
 use super::split::DEVIATION_FACTOR;
 use super::state::{State, COLLAPSE_FACTOR, CORNER, SMOOTH, SPLIT_FACTOR};
-use super::RemeshError;
+use super::{Cancel, RemeshError};
 use crate::bvh::closest_point_on_triangle;
 use crate::geometry::{triangle_cross, triangle_quality};
 use crate::mesh::{EdgeId, HalfedgeId, Handle, VertexId};
 
-/// Largest normal change of a one-ring face caused by a collapse, as a cosine (≈ 45°).
-const MAX_NORMAL_CHANGE_COS: f64 = std::f64::consts::FRAC_1_SQRT_2;
-/// A collapse may not leave a face with quality below this unless the
-/// one-ring's worst face (the two removed faces included) was already worse.
-const MIN_QUALITY: f64 = 0.2;
 /// A collapse may not create a vertex with more edges than this. Besides
 /// keeping valences near 6, this bounds the cost of every check around the
 /// high-valence fan centres that CAD tessellations contain.
@@ -58,27 +54,14 @@ const VALENCE_COLLAPSE_STRETCH: f64 = 1.1;
 /// [`VERY_SHORT_STRETCH`] times the split length (uniform sizing).
 const VERY_SHORT: f64 = 0.5;
 /// How far the length guard stretches for a [`VERY_SHORT`] edge (up to
-/// about 1.53 times the target).
-///
-/// Anisotropic input, rows of short edges between long ones (a torus
-/// tessellated 2000 × 250, CAD strips), otherwise locks: merging two ends
-/// of a 0.3–0.6·L edge in such a row puts the merged vertex about 1.4–1.5·L
-/// from the far corners of the neighbouring long triangles, the strict guard
-/// refuses every such collapse, and the row survives all iterations as
-/// needles. On the 1M-triangle bench torus the strict guard left 29.6 % of
-/// the triangles below 30° and 86 % of the edges in the band; with the
-/// stretch none is below 30° and 99.9 % are in the band. The few long edges
-/// a stretched collapse leaves are split by the next iteration. Near
-/// features the stretch is left out: there it moved fandisk's vertices in
-/// its narrowest feature sector to an 18.4° triangle (the sector forces
-/// 19.4°).
+/// about 1.53 times the target): rows of short edges between long ones
+/// (anisotropic tessellations, CAD strips) cannot merge under the strict
+/// guard and would survive as needles. Left out near features, whose narrow
+/// sectors it would squeeze. Measurements: `docs/tuning.md`.
 const VERY_SHORT_STRETCH: f64 = 1.15;
 
 /// Collapses short edges in one sweep; returns the number of collapses.
-pub(super) fn collapse_short_edges(
-    st: &mut State,
-    cancelled: &dyn Fn() -> bool,
-) -> Result<u64, RemeshError> {
+pub(super) fn collapse_short_edges(st: &mut State, cancel: &Cancel) -> Result<u64, RemeshError> {
     let mut count = 0u64;
     // Find the short edges in parallel (a pure scan), then collapse them in
     // index order, re-checking each one, so the result stays deterministic.
@@ -88,9 +71,7 @@ pub(super) fn collapse_short_edges(
             .then_some(e.0)
     });
     for (k, &i) in candidates.iter().enumerate() {
-        if k % 4096 == 0 && cancelled() {
-            return Err(RemeshError::Cancelled);
-        }
+        cancel.every(k as u64)?;
         let e = EdgeId(i);
         if st.mesh.is_edge_deleted(e) {
             continue;
@@ -239,7 +220,7 @@ fn collapse_quality(st: &State, h: HalfedgeId, p: DVec3, stretch: f64) -> Option
             let new = [p, old[1], old[2]];
             let (n_old, n_new) = (triangle_cross(old), triangle_cross(new));
             let (l_old, l_new) = (n_old.length(), n_new.length());
-            if l_new <= 0.0 || n_old.dot(n_new) <= MAX_NORMAL_CHANGE_COS * l_old * l_new {
+            if l_new <= 0.0 || n_old.dot(n_new) <= COLLAPSE_MAX_NORMAL_TURN_COS * l_old * l_new {
                 return None;
             }
             worst = worst.min(triangle_quality(new));
@@ -265,7 +246,7 @@ fn collapse_quality(st: &State, h: HalfedgeId, p: DVec3, stretch: f64) -> Option
     // A kept face is read from `v` and a removed one in its own order (the
     // quality's rounding depends on the corner order; this is the order the
     // README's figures were measured with).
-    if worst < MIN_QUALITY {
+    if worst < COLLAPSE_MIN_QUALITY {
         let ring_worst = |v: VertexId| {
             m.outgoing(v)
                 .filter(|&g| m.face(g).is_valid())
@@ -349,7 +330,7 @@ fn valence_collapse_gain(st: &State, e: EdgeId, valences: &Valences) -> Option<i
 pub(super) fn collapse_for_valence(
     st: &mut State,
     valences: &mut Valences,
-    cancelled: &dyn Fn() -> bool,
+    cancel: &Cancel,
 ) -> Result<(u64, Vec<u32>), RemeshError> {
     // Candidates from the valences at the start, found in parallel.
     let candidates: Vec<u32> = {
@@ -364,9 +345,7 @@ pub(super) fn collapse_for_valence(
     let mut count = 0u64;
     let mut touched: Vec<u32> = Vec::new();
     for (k, &i) in candidates.iter().enumerate() {
-        if k % 4096 == 0 && cancelled() {
-            return Err(RemeshError::Cancelled);
-        }
+        cancel.every(k as u64)?;
         // Earlier collapses change valences nearby: check again.
         let e = EdgeId(i);
         if valence_collapse_gain(st, e, valences).is_none_or(|g| g <= 0) {

@@ -2,42 +2,23 @@
 //! minimising the sum of squared valence deviations of the four vertices
 //! involved (Botsch & Kobbelt 2004), and flip non-Delaunay edges whose flip
 //! does not worsen valence, as CGAL does to repair badly shaped triangles.
-//! After the last iteration, [`repair_slivers`] flips the longest edge of any
-//! triangle still below 30° when that raises the smallest angle of the pair,
-//! whatever the valence.
 //!
 //! Guards: never a feature or boundary edge; the two faces must be nearly
 //! coplanar, so a flip never changes the shape; both new faces must keep the
 //! orientation and must not be degenerate or much worse than before. The
-//! sliver repair alone may flip a pair that fails the coplanarity test when
-//! the four vertices span a thin tetrahedron (a cap on a bend, whose normal
-//! means nothing; see [`sliver_geometry_ok`]).
-
-use std::cmp::Reverse;
-use std::collections::BinaryHeap;
+//! sliver repair after the last iteration (`repair.rs`) reuses these guards.
 
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::guards::{FLIP_MAX_DIHEDRAL_COS, FLIP_MIN_QUALITY};
 use super::state::State;
-use super::RemeshError;
-use crate::geometry::{triangle_cross, triangle_min_angle_cos, triangle_quality};
-use crate::mesh::{EdgeId, FaceId, HalfedgeId, Handle, Mesh, VertexId};
+use super::{Cancel, RemeshError};
+use crate::geometry::{triangle_cross, triangle_quality};
+use crate::mesh::{EdgeId, HalfedgeId, Handle, Mesh, VertexId};
 
-/// Largest dihedral angle between the two faces of a flippable edge (20°), as a cosine.
-const MAX_DIHEDRAL_COS: f64 = 0.939_692_620_785_908_4;
-/// A valence flip may not create a face worse than this unless the old pair was already worse.
-const MIN_QUALITY: f64 = 0.3;
-/// Largest distance, in units of the local target, between the old and the
-/// new edge of a sliver-repair flip that fails the dihedral test (see
-/// [`sliver_geometry_ok`]): a tenth of an edge, 0.75 ‰ of the diagonal at
-/// the bench's L, half the median distance to the input.
-const SLIVER_SAG: f64 = 0.1;
 /// Sweeps over the edges per pass at most.
-const MAX_SWEEPS: usize = 6;
-/// Cosine of the smallest angle (30°) below which [`repair_slivers`] tries
-/// the triangle's longest edge.
-const REPAIR_COS: f64 = 0.866_025_403_784_438_6;
+pub(super) const MAX_SWEEPS: usize = 6;
 
 /// Every vertex's valence and valence target (4 on the boundary, 6
 /// elsewhere; a deleted vertex counts as 0 of 6), computed once per
@@ -79,7 +60,7 @@ pub(super) fn flip_edges(
     st: &mut State,
     valences: &mut Valences,
     seed: Option<Vec<u32>>,
-    cancelled: &dyn Fn() -> bool,
+    cancel: &Cancel,
 ) -> Result<u64, RemeshError> {
     debug_assert!(
         {
@@ -123,9 +104,7 @@ pub(super) fn flip_edges(
         let mut flipped = 0u64;
         let mut next: Vec<u32> = Vec::new();
         for (k, &(i, decided)) in work.iter().enumerate() {
-            if k % 4096 == 0 && cancelled() {
-                return Err(RemeshError::Cancelled);
-            }
+            cancel.every(k as u64)?;
             let e = EdgeId(i);
             if st.mesh.is_edge_deleted(e) {
                 continue;
@@ -201,170 +180,10 @@ fn flip_wanted_quad(st: &State, e: EdgeId, q: [VertexId; 4], (before, after): (i
     geometry_ok(old, new) && m.can_flip(e)
 }
 
-/// Final sweep after the last iteration: a triangle whose smallest angle is
-/// below 30° gets its longest edge flipped when that raises the
-/// smallest angle of the two faces, whatever it does to the valence (the
-/// valence flips only accept shape repairs that keep the valence, and a
-/// single obtuse triangle beside a feature line can survive them). The same
-/// guards as every flip apply: no feature or boundary edge, nearly coplanar
-/// faces, no fold, no worse quality. Faces are visited in index order, so
-/// the result is deterministic. Returns the number of flips.
-pub(super) fn repair_slivers(
-    st: &mut State,
-    cancelled: &dyn Fn() -> bool,
-) -> Result<u64, RemeshError> {
-    // Only a flip changes a face or the quad across its longest edge, so a
-    // sweep visits the faces below 30° at the start and, after that, only
-    // the faces of flipped quads and their neighbours, in index order (a
-    // face queued behind the cursor waits for the next sweep): the same
-    // visits that matter as a full scan, without the scan.
-    let mut work: Vec<u32> = {
-        let m = &st.mesh;
-        st.pool.install(|| {
-            (0..m.face_capacity() as u32)
-                .into_par_iter()
-                .filter(|&fi| {
-                    let f = FaceId(fi);
-                    !m.is_face_deleted(f)
-                        && triangle_min_angle_cos(m.face_positions(f)) > REPAIR_COS
-                })
-                .collect()
-        })
-    };
-    let mut in_heap = vec![false; st.mesh.face_capacity()];
-    let mut in_next = vec![false; st.mesh.face_capacity()];
-    let mut count = 0u64;
-    let mut visited = 0u64;
-    for _ in 0..MAX_SWEEPS {
-        if work.is_empty() {
-            break;
-        }
-        for &f in &work {
-            in_next[f as usize] = false;
-            in_heap[f as usize] = true;
-        }
-        let mut heap: BinaryHeap<Reverse<u32>> = work.iter().map(|&f| Reverse(f)).collect();
-        let mut next: Vec<u32> = Vec::new();
-        let mut flipped = 0u64;
-        while let Some(Reverse(fi)) = heap.pop() {
-            in_heap[fi as usize] = false;
-            visited += 1;
-            if visited % 4096 == 0 && cancelled() {
-                return Err(RemeshError::Cancelled);
-            }
-            let Some(e) = sliver_flip(st, FaceId(fi)) else {
-                continue;
-            };
-            st.mesh.flip_edge(e);
-            flipped += 1;
-            let m = &st.mesh;
-            let h = e.halfedge(0);
-            for g in [h, h.twin()] {
-                let mut k = g;
-                for _ in 0..3 {
-                    for f in [m.face(k), m.face(k.twin())] {
-                        if !f.is_valid() {
-                            continue;
-                        }
-                        let j = f.0;
-                        if j > fi {
-                            if !in_heap[j as usize] {
-                                in_heap[j as usize] = true;
-                                heap.push(Reverse(j));
-                            }
-                        } else if !in_next[j as usize] {
-                            in_next[j as usize] = true;
-                            next.push(j);
-                        }
-                    }
-                    k = m.next(k);
-                }
-            }
-        }
-        count += flipped;
-        if flipped == 0 {
-            break;
-        }
-        next.sort_unstable();
-        work = next;
-    }
-    Ok(count)
-}
-
-/// The edge to flip for face `f` in the sliver repair: its longest edge,
-/// when `f` is below 30°, the edge may flip and the flip raises the pair's
-/// smallest angle under the flip guards.
-fn sliver_flip(st: &State, f: FaceId) -> Option<EdgeId> {
-    let m = &st.mesh;
-    if m.is_face_deleted(f) {
-        return None;
-    }
-    let h0 = m.face_halfedge(f);
-    let h1 = m.next(h0);
-    let h2 = m.next(h1);
-    let t = m.face_vertices(f).map(|v| m.position(v));
-    if triangle_min_angle_cos(t) <= REPAIR_COS {
-        return None;
-    }
-    // The edge opposite the largest angle, which is the longest edge:
-    // corner 0 faces h1, 1 faces h2, 2 faces h0.
-    let len = [
-        t[1].distance_squared(t[2]),
-        t[2].distance_squared(t[0]),
-        t[0].distance_squared(t[1]),
-    ];
-    let k = (0..3).fold(0, |k, i| if len[i] > len[k] { i } else { k });
-    let h = [h1, h2, h0][k];
-    let e = h.edge();
-    if st.line_of(e).is_some() || m.is_boundary_edge(e) || !m.can_flip(e) {
-        return None;
-    }
-    let q = quad(m, h);
-    let (old, new) = quad_triangles(m, q);
-    // Cosine of the pair's smallest angle: lower is better.
-    let worst = |t: [[DVec3; 3]; 2]| triangle_min_angle_cos(t[0]).max(triangle_min_angle_cos(t[1]));
-    if worst(new) >= worst(old) - 1e-12 {
-        return None;
-    }
-    let tol = SLIVER_SAG * st.edge_target(q[0], q[1]);
-    (geometry_ok(old, new) || sliver_geometry_ok(old, new, tol)).then_some(e)
-}
-
-/// The sliver repair's own geometric guard, for pairs that fail the
-/// dihedral test of [`geometry_ok`]. A cap (an angle near 180°) on a bend of
-/// the surface has no reliable normal, so its dihedral angle with the face
-/// across its long edge says nothing about the shape; on the bunny such a
-/// cap, between a feature line and its chord, kept a 6° angle. What a flip
-/// changes is the tetrahedron of the four vertices, whose thickness is the
-/// distance between the old edge `ab` and the new edge `cd`: the flip is
-/// allowed when that distance is at most `tol`, both new faces are
-/// non-degenerate and face the side of the pair's area-weighted normal (the
-/// cap, nearly flat, barely counts), and the new pair's worse face is no
-/// worse in quality than the old pair's.
-fn sliver_geometry_ok(old: [[DVec3; 3]; 2], new: [[DVec3; 3]; 2], tol: f64) -> bool {
-    let n = triangle_cross(old[0]) + triangle_cross(old[1]);
-    let (m1, m2) = (triangle_cross(new[0]), triangle_cross(new[1]));
-    if m1.dot(n) <= 0.0 || m2.dot(n) <= 0.0 {
-        return false;
-    }
-    let [a, b, c] = old[0];
-    let d = old[1][2];
-    let w = (b - a).cross(d - c);
-    let wl = w.length();
-    // Parallel edges cannot occur in a quad with both new faces facing `n`;
-    // refuse rather than divide by nothing.
-    if wl <= 0.0 || (c - a).dot(w).abs() > tol * wl {
-        return false;
-    }
-    let q_old = triangle_quality(old[0]).min(triangle_quality(old[1]));
-    let q_new = triangle_quality(new[0]).min(triangle_quality(new[1]));
-    q_new >= q_old
-}
-
 /// The quad around the edge of `h`: its ends `a` (tail) and `b` (head),
 /// then `c` opposite it in `h`'s face and `d` in the twin's. A flip replaces
 /// `ab` by `cd`.
-fn quad(m: &Mesh, h: HalfedgeId) -> [VertexId; 4] {
+pub(super) fn quad(m: &Mesh, h: HalfedgeId) -> [VertexId; 4] {
     let o = h.twin();
     [
         m.to_vertex(o),
@@ -375,7 +194,10 @@ fn quad(m: &Mesh, h: HalfedgeId) -> [VertexId; 4] {
 }
 
 /// The two faces of `quad` before and after the flip, counter-clockwise.
-fn quad_triangles(m: &Mesh, [a, b, c, d]: [VertexId; 4]) -> ([[DVec3; 3]; 2], [[DVec3; 3]; 2]) {
+pub(super) fn quad_triangles(
+    m: &Mesh,
+    [a, b, c, d]: [VertexId; 4],
+) -> ([[DVec3; 3]; 2], [[DVec3; 3]; 2]) {
     let [pa, pb, pc, pd] = [a, b, c, d].map(|v| m.position(v));
     ([[pa, pb, pc], [pb, pa, pd]], [[pc, pa, pd], [pd, pb, pc]])
 }
@@ -416,11 +238,11 @@ fn improves_delaunay(old: [[DVec3; 3]; 2]) -> bool {
     d1 * c2 + d2 * c1 < -1e-9 * (l1 * l2).sqrt()
 }
 
-fn geometry_ok(old: [[DVec3; 3]; 2], new: [[DVec3; 3]; 2]) -> bool {
+pub(super) fn geometry_ok(old: [[DVec3; 3]; 2], new: [[DVec3; 3]; 2]) -> bool {
     let n1 = triangle_cross(old[0]);
     let n2 = triangle_cross(old[1]);
     let (l1, l2) = (n1.length(), n2.length());
-    if l1 <= 0.0 || l2 <= 0.0 || n1.dot(n2) < MAX_DIHEDRAL_COS * l1 * l2 {
+    if l1 <= 0.0 || l2 <= 0.0 || n1.dot(n2) < FLIP_MAX_DIHEDRAL_COS * l1 * l2 {
         return false;
     }
     let avg = n1 / l1 + n2 / l2;
@@ -430,43 +252,18 @@ fn geometry_ok(old: [[DVec3; 3]; 2], new: [[DVec3; 3]; 2]) -> bool {
     if k1 <= 0.0 || k2 <= 0.0 || m1.dot(avg) <= 0.0 || m2.dot(avg) <= 0.0 {
         return false;
     }
-    if m1.dot(m2) < MAX_DIHEDRAL_COS * k1 * k2 {
+    if m1.dot(m2) < FLIP_MAX_DIHEDRAL_COS * k1 * k2 {
         return false;
     }
     let q_old = triangle_quality(old[0]).min(triangle_quality(old[1]));
     let q_new = triangle_quality(new[0]).min(triangle_quality(new[1]));
-    q_new >= q_old.min(MIN_QUALITY)
+    q_new >= q_old.min(FLIP_MIN_QUALITY)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::geometry::triangle_angles;
-
-    /// The quad `ab` (the x-axis), `c` a cap apex bent up off the plane
-    /// of the face across `ab`, `d` in that plane; old and new pairs as
-    /// [`quad_triangles`] orders them.
-    fn cap_pair(c: DVec3) -> ([[DVec3; 3]; 2], [[DVec3; 3]; 2]) {
-        let (a, b, d) = (DVec3::ZERO, DVec3::X, DVec3::new(0.5, -0.8, 0.0));
-        ([[a, b, c], [b, a, d]], [[c, a, d], [d, b, c]])
-    }
-
-    #[test]
-    fn a_thin_cap_on_a_bend_may_flip_a_thick_one_may_not() {
-        // 34° between the cap and its neighbour: the dihedral guard refuses,
-        // but the new edge passes 0.019 from the old one.
-        let (old, new) = cap_pair(DVec3::new(0.5, 0.03, 0.02));
-        assert!(!geometry_ok(old, new));
-        assert!(sliver_geometry_ok(old, new, 0.1));
-        assert!(!sliver_geometry_ok(old, new, 0.01));
-        // The same cap raised to 0.3: the flip would cut 0.27 off the shape.
-        let (old, new) = cap_pair(DVec3::new(0.5, 0.03, 0.3));
-        assert!(!sliver_geometry_ok(old, new, 0.1));
-        // Folded under the neighbour's plane the other way round: the new
-        // faces would face away from the pair.
-        let (old, new) = cap_pair(DVec3::new(0.5, -0.9, 0.05));
-        assert!(!sliver_geometry_ok(old, new, 10.0));
-    }
 
     /// The acos-free test agrees with summing the two opposite angles, and
     /// leaves co-circular quads alone.

@@ -13,7 +13,8 @@
 //! in [`crate::mesh`]; this module only decides *which* edges and vertices to
 //! change. One pass per file: `split.rs`, `collapse.rs`, `flip.rs`,
 //! `relax.rs` (relaxation and projection share the guarded move in
-//! `relax.rs`).
+//! `relax.rs`), and the final sliver repair in `repair.rs`; the guard
+//! thresholds of all of them live in `guards.rs`.
 //!
 //! Every pass is deterministic: topological passes walk handles in index
 //! order, and the parallel passes are pure per-vertex maps applied at once,
@@ -21,8 +22,10 @@
 
 mod collapse;
 mod flip;
+mod guards;
 mod options;
 mod relax;
+mod repair;
 mod split;
 mod state;
 
@@ -32,6 +35,7 @@ pub use options::{
 };
 
 use serde::{Deserialize, Serialize};
+use std::cell::RefCell;
 use std::time::Instant;
 
 use crate::mesh::Mesh;
@@ -274,35 +278,22 @@ fn run(
 ) -> Result<RemeshOutput, RemeshError> {
     let start = Instant::now();
     let iterations = options.iterations;
-    let notify = |observer: &mut dyn ObserverDyn, iteration: u32, pass: Pass| {
-        let fraction = if iterations == 0 {
-            1.0
-        } else {
-            ((iteration.max(1) - 1) as f64 + pass.order() / 5.0) / iterations as f64
-        };
-        observer.progress_dyn(&Progress {
-            iteration,
-            iterations,
-            pass,
-            fraction: if pass == Pass::Prepare { 0.0 } else { fraction },
-        });
-        if observer.is_cancelled_dyn() {
-            Err(RemeshError::Cancelled)
-        } else {
-            Ok(())
-        }
+    let observer = RefCell::new(observer);
+    let is_cancelled = || observer.borrow().is_cancelled();
+    let cancel = Cancel {
+        asked: &is_cancelled,
     };
-    notify(observer, 0, Pass::Prepare)?;
+    // Reports the pass about to run, then honours a cancel request.
+    let enter = |iteration: u32, pass: Pass| -> Result<(), RemeshError> {
+        observer
+            .borrow_mut()
+            .progress(&Progress::at(iteration, iterations, pass));
+        cancel.now()
+    };
+
+    enter(0, Pass::Prepare)?;
     let mut st = State::new(input, options, pool)?;
-    let mut report = RemeshReport {
-        target_edge_length: st.mean_target(),
-        target_range: st.target_range(),
-        feature_edges: st.features.edges().len() as u64,
-        corners: st.features.corners().len() as u64,
-        feature_lines: st.features.lines().len() as u64,
-        fixed_turns: st.fixed_turns,
-        ..Default::default()
-    };
+    let mut report = RemeshReport::of_input(&st);
     report.seconds.prepare = start.elapsed().as_secs_f64();
 
     // Renumbered once in the first iteration, after its splits when they
@@ -311,69 +302,33 @@ fn run(
     for it in 1..=iterations {
         let mut ir = IterationReport::default();
         let before = report.seconds;
+        let t = &mut report.seconds;
         if options.split {
-            notify(observer, it, Pass::Split)?;
-            let t = Instant::now();
-            ir.splits = split::split_long_edges(&mut st, &|| observer.is_cancelled())?;
-            ir.splits += split::split_deviating_edges(&mut st, &|| observer.is_cancelled())?;
-            if ir.splits as usize * 4 > st.mesh.face_count() {
-                st.renumber();
-                renumbered = true;
-            }
-            report.seconds.split += t.elapsed().as_secs_f64();
+            enter(it, Pass::Split)?;
+            ir.splits = timed(&mut t.split, || {
+                let n = split::split_long_edges(&mut st, &cancel)?
+                    + split::split_deviating_edges(&mut st, &cancel)?;
+                if n as usize * 4 > st.mesh.face_count() {
+                    st.renumber();
+                    renumbered = true;
+                }
+                Ok(n)
+            })?;
         }
         if options.collapse {
-            notify(observer, it, Pass::Collapse)?;
-            let t = Instant::now();
-            ir.collapses = collapse::collapse_short_edges(&mut st, &|| observer.is_cancelled())?;
-            report.seconds.collapse += t.elapsed().as_secs_f64();
+            enter(it, Pass::Collapse)?;
+            ir.collapses = timed(&mut t.collapse, || {
+                collapse::collapse_short_edges(&mut st, &cancel)
+            })?;
         }
         if options.flip {
-            notify(observer, it, Pass::Flip)?;
-            let t = Instant::now();
-            let mut valences = flip::Valences::of(&st);
-            ir.flips = flip::flip_edges(&mut st, &mut valences, None, &|| observer.is_cancelled())?;
-            if options.collapse {
-                // Merge the irregular pairs flips cannot fix, then flip again
-                // around the merged vertices.
-                let (n, seed) = collapse::collapse_for_valence(&mut st, &mut valences, &|| {
-                    observer.is_cancelled()
-                })?;
-                ir.collapses += n;
-                if n > 0 {
-                    ir.flips += flip::flip_edges(&mut st, &mut valences, Some(seed), &|| {
-                        observer.is_cancelled()
-                    })?;
-                }
-            }
-            report.seconds.flip += t.elapsed().as_secs_f64();
+            enter(it, Pass::Flip)?;
+            let (flips, collapses) =
+                timed(&mut t.flip, || equalize_valences(&mut st, options, &cancel))?;
+            ir.flips = flips;
+            ir.collapses += collapses;
         }
-        for _ in 0..options.relaxation_steps.max(1) {
-            let relax = options.relax && options.relaxation_steps > 0;
-            if relax && options.project {
-                // One guarded move to the projection of the relaxed point.
-                notify(observer, it, Pass::Relax)?;
-                notify(observer, it, Pass::Project)?;
-                let t = Instant::now();
-                let (limited, relax_seconds) = relax::relax_and_project(&mut st);
-                ir.project_moves_limited += limited;
-                report.seconds.relax += relax_seconds;
-                report.seconds.project += t.elapsed().as_secs_f64() - relax_seconds;
-                continue;
-            }
-            if relax {
-                notify(observer, it, Pass::Relax)?;
-                let t = Instant::now();
-                ir.relax_moves_limited += relax::relax_tangentially(&mut st);
-                report.seconds.relax += t.elapsed().as_secs_f64();
-            }
-            if options.project {
-                notify(observer, it, Pass::Project)?;
-                let t = Instant::now();
-                ir.project_moves_limited += relax::project_to_input(&mut st);
-                report.seconds.project += t.elapsed().as_secs_f64();
-            }
-        }
+        smooth(&mut st, options, &mut ir, t, &|pass| enter(it, pass))?;
         ir.faces = st.mesh.face_count() as u64;
         ir.seconds = report.seconds.since(&before);
         if it == 1 && !renumbered {
@@ -385,14 +340,14 @@ fn run(
     if options.flip && iterations > 0 {
         // Part of the last iteration's progress: no new report, so the
         // fraction stays monotone.
-        if observer.is_cancelled() {
-            return Err(RemeshError::Cancelled);
-        }
-        let t = Instant::now();
-        report.repair_flips = flip::repair_slivers(&mut st, &|| observer.is_cancelled())?;
-        report.repair_moves = relax::improve_slivers(&mut st, &|| observer.is_cancelled())?;
-        report.repair_flips += flip::repair_slivers(&mut st, &|| observer.is_cancelled())?;
-        report.seconds.flip += t.elapsed().as_secs_f64();
+        cancel.now()?;
+        let (flips, moves) = timed(&mut report.seconds.flip, || {
+            let first = repair::repair_slivers(&mut st, &cancel)?;
+            let moves = repair::improve_slivers(&mut st, &cancel)?;
+            Ok((first + repair::repair_slivers(&mut st, &cancel)?, moves))
+        })?;
+        report.repair_flips = flips;
+        report.repair_moves = moves;
     }
     let (mesh, vertex_target) = st.finish();
     mesh.validate()
@@ -405,17 +360,132 @@ fn run(
     })
 }
 
-/// Object-safe view of [`Observer`] for the progress closure.
-trait ObserverDyn {
-    fn progress_dyn(&mut self, p: &Progress);
-    fn is_cancelled_dyn(&self) -> bool;
+/// Runs `pass` and adds its wall time to `seconds`.
+fn timed<T>(
+    seconds: &mut f64,
+    pass: impl FnOnce() -> Result<T, RemeshError>,
+) -> Result<T, RemeshError> {
+    let t = Instant::now();
+    let out = pass();
+    *seconds += t.elapsed().as_secs_f64();
+    out
 }
 
-impl<O: Observer> ObserverDyn for O {
-    fn progress_dyn(&mut self, p: &Progress) {
-        self.progress(p)
+/// Pass 3: flips toward regular valence, then, when collapses are on, the
+/// valence-driven collapses of the irregular pairs flips cannot fix, and
+/// flips again around the merged vertices. Returns (flips, collapses).
+fn equalize_valences(
+    st: &mut State,
+    options: &RemeshOptions,
+    cancel: &Cancel,
+) -> Result<(u64, u64), RemeshError> {
+    let mut valences = flip::Valences::of(st);
+    let mut flips = flip::flip_edges(st, &mut valences, None, cancel)?;
+    let mut collapses = 0;
+    if options.collapse {
+        let (n, seed) = collapse::collapse_for_valence(st, &mut valences, cancel)?;
+        collapses = n;
+        if n > 0 {
+            flips += flip::flip_edges(st, &mut valences, Some(seed), cancel)?;
+        }
     }
-    fn is_cancelled_dyn(&self) -> bool {
-        self.is_cancelled()
+    Ok((flips, collapses))
+}
+
+/// Passes 4 and 5, `relaxation_steps` times: with both on, one guarded move
+/// to the projection of the relaxed point; otherwise whichever is on.
+fn smooth(
+    st: &mut State,
+    options: &RemeshOptions,
+    ir: &mut IterationReport,
+    t: &mut PassTimes,
+    enter: &dyn Fn(Pass) -> Result<(), RemeshError>,
+) -> Result<(), RemeshError> {
+    let relax = options.relax && options.relaxation_steps > 0;
+    for _ in 0..options.relaxation_steps.max(1) {
+        if relax && options.project {
+            enter(Pass::Relax)?;
+            enter(Pass::Project)?;
+            let start = Instant::now();
+            let (limited, relax_seconds) = relax::relax_and_project(st);
+            ir.project_moves_limited += limited;
+            t.relax += relax_seconds;
+            t.project += start.elapsed().as_secs_f64() - relax_seconds;
+            continue;
+        }
+        if relax {
+            enter(Pass::Relax)?;
+            ir.relax_moves_limited += timed(&mut t.relax, || Ok(relax::relax_tangentially(st)))?;
+        }
+        if options.project {
+            enter(Pass::Project)?;
+            ir.project_moves_limited += timed(&mut t.project, || Ok(relax::project_to_input(st)))?;
+        }
+    }
+    Ok(())
+}
+
+/// How often the passes ask the observer whether to stop: once per this
+/// many units of work (edges, faces or vertices visited), a fraction of a
+/// millisecond apart, so that a cancel takes effect well within a second
+/// without the check costing anything measurable.
+const CANCEL_STRIDE: u64 = 4096;
+
+/// The one cancellation check every pass shares.
+pub(super) struct Cancel<'a> {
+    asked: &'a dyn Fn() -> bool,
+}
+
+impl Cancel<'_> {
+    /// Asks now: `Err(Cancelled)` when the observer wants to stop.
+    fn now(&self) -> Result<(), RemeshError> {
+        if (self.asked)() {
+            Err(RemeshError::Cancelled)
+        } else {
+            Ok(())
+        }
+    }
+
+    /// Asks when `work` (a pass's running count) is a multiple of the stride.
+    pub(super) fn every(&self, work: u64) -> Result<(), RemeshError> {
+        if work % CANCEL_STRIDE == 0 {
+            self.now()
+        } else {
+            Ok(())
+        }
+    }
+}
+
+impl Progress {
+    /// The progress at the start of `pass` in `iteration` (0 while preparing).
+    fn at(iteration: u32, iterations: u32, pass: Pass) -> Progress {
+        let fraction = if pass == Pass::Prepare {
+            0.0
+        } else if iterations == 0 {
+            1.0
+        } else {
+            ((iteration.max(1) - 1) as f64 + pass.order() / 5.0) / iterations as f64
+        };
+        Progress {
+            iteration,
+            iterations,
+            pass,
+            fraction,
+        }
+    }
+}
+
+impl RemeshReport {
+    /// A report holding what preparation found on the input.
+    fn of_input(st: &State) -> RemeshReport {
+        RemeshReport {
+            target_edge_length: st.mean_target(),
+            target_range: st.target_range(),
+            feature_edges: st.features.edges().len() as u64,
+            corners: st.features.corners().len() as u64,
+            feature_lines: st.features.lines().len() as u64,
+            fixed_turns: st.fixed_turns,
+            ..Default::default()
+        }
     }
 }

@@ -20,32 +20,22 @@
 //! vertex's relaxed point is projected first and the vertex makes a single
 //! guarded move there: one check of the mesh per step instead of two.
 //!
-//! After the last iteration, [`improve_slivers`] moves the smooth vertices of
-//! triangles still below 30° to better places on the input, one at a time.
+//! The sliver repair after the last iteration (`repair.rs`) moves vertices
+//! one at a time under the same guard thresholds.
 
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::state::{State, COLLAPSE_FACTOR, CORNER, SMOOTH, SPLIT_FACTOR};
+use super::guards::{MOVE_MAX_NORMAL_TURN_COS, MOVE_MIN_QUALITY};
+use super::state::{State, CORNER, SMOOTH};
 use crate::bvh::{closest_point_on_triangle, ClosestPoint};
-use crate::geometry::{triangle_cross, triangle_min_angle_cos, triangle_quality};
+use crate::geometry::{triangle_cross, triangle_quality};
 use crate::mesh::{FaceId, Handle, VertexId};
 
 /// How often a guarded move is halved before it is dropped.
 const MAX_HALVINGS: u32 = 5;
-/// A move may not leave a face with quality below this unless it was already worse.
-const MIN_QUALITY: f64 = 0.05;
 /// 2·√3: quality q = 2·√3·|cross| / Σ edge².
 const SQRT_12: f64 = 3.464_101_615_137_754_6;
-/// Largest normal change of a face caused by one move step (60°), as a cosine.
-const MAX_NORMAL_CHANGE_COS: f64 = 0.5;
-
-/// Cosine of the smallest angle (30°) below which [`improve_slivers`] tries
-/// to move the corners of a triangle.
-const SHAPE_COS: f64 = 0.866_025_403_784_438_6;
-
-/// Edges at a vertex that a shape move may push out of the length band.
-const SHAPE_BAND_SLACK: usize = 1;
 /// Ring faces whose normals [`ridge_direction`] compares, at most.
 const RIDGE_RING: usize = 12;
 /// Two ring face normals further apart than this (60°), as a cosine, make
@@ -61,8 +51,6 @@ const RIDGE_HALF_COS: f64 = 0.866_025_405;
 /// Face-to-face steps of the projection walk before it gives up and asks
 /// the BVH.
 const WALK_STEPS: usize = 16;
-/// Sweeps of [`improve_slivers`] at most.
-const SHAPE_ROUNDS: usize = 3;
 
 /// Where a vertex projects: the point, the new face and segment hints, and
 /// the surface face and barycentric coordinates under it (for sizing).
@@ -270,7 +258,7 @@ fn project_points(st: &mut State, from: &[DVec3]) -> u64 {
 /// region) and, when the closest point is a corner of the current face, the
 /// faces around that corner. Vertices move little between iterations, so the
 /// walk usually ends after one or two steps of three or four triangle tests.
-fn walk_closest(st: &State, p: DVec3, hint: u32, size: f64) -> Option<ClosestPoint> {
+pub(super) fn walk_closest(st: &State, p: DVec3, hint: u32, size: f64) -> Option<ClosestPoint> {
     let tris = st.index.triangles();
     let pos = st.index.positions();
     if hint as usize >= tris.len() {
@@ -446,11 +434,11 @@ fn face_breaks(st: &State, vs: [VertexId; 3], old: &[DVec3], check_input: bool) 
     let n = triangle_cross(t);
     let n0 = triangle_cross(t0);
     let ln = n.length();
-    if ln <= 0.0 || n.dot(n0) <= MAX_NORMAL_CHANGE_COS * ln * n0.length() {
+    if ln <= 0.0 || n.dot(n0) <= MOVE_MAX_NORMAL_TURN_COS * ln * n0.length() {
         return true;
     }
     // Quality 2·√3·|n| / Σ edge² below the floor, and worse than before.
-    if SQRT_12 * ln < MIN_QUALITY * squared_edge_sum(t)
+    if SQRT_12 * ln < MOVE_MIN_QUALITY * squared_edge_sum(t)
         && triangle_quality(t) < triangle_quality(t0)
     {
         return true;
@@ -477,257 +465,11 @@ fn squared_edge_sum(t: [DVec3; 3]) -> f64 {
 /// is below 30° tries a few positions and keeps the one, projected
 /// onto the input, that gives its one-ring the largest smallest angle.
 ///
-/// Relaxation puts a vertex at the centroid of its ring, which is the wrong
-/// place for the apex over a short edge that cannot go away (two corners of
-/// the input close together, or a crease line passing near): the triangle
-/// gets a sliver angle at the apex. The candidates are the apex of the
-/// equilateral triangle over each bad face's opposite edge, and the points a
-/// half and a quarter of the way there; a move is kept only if every ring
-/// face stays non-degenerate, turns by less than 60° and faces the same way
-/// as the input under the vertex, the ring's smallest angle grows, and at
-/// most [`SHAPE_BAND_SLACK`] more of the vertex's edges leave the length band.
-/// Vertices are visited in face order, so the result is deterministic.
-/// Returns the number of vertices moved.
-pub(super) fn improve_slivers(
-    st: &mut State,
-    cancelled: &dyn Fn() -> bool,
-) -> Result<u64, super::RemeshError> {
-    let mut moved = 0u64;
-    // Each vertex is tried once per round; after the first round only the
-    // vertices next to one that moved (their rings changed) are tried again.
-    let nv = st.mesh.vertex_capacity();
-    let mut dirty = vec![true; nv];
-    for _ in 0..SHAPE_ROUNDS {
-        let mut tried = vec![false; nv];
-        let mut next = vec![false; nv];
-        let before = moved;
-        for fi in 0..st.mesh.face_capacity() as u32 {
-            if fi % 4096 == 0 && cancelled() {
-                return Err(super::RemeshError::Cancelled);
-            }
-            let f = FaceId(fi);
-            if st.mesh.is_face_deleted(f) {
-                continue;
-            }
-            let t = st.mesh.face_positions(f);
-            if triangle_min_angle_cos(t) <= SHAPE_COS {
-                continue;
-            }
-            for v in st.mesh.face_vertices(f) {
-                if tried[v.idx()] || !dirty[v.idx()] {
-                    continue;
-                }
-                tried[v.idx()] = true;
-                let improved = match st.kind[v.idx()] {
-                    CORNER => false,
-                    SMOOTH => !st.mesh.is_boundary_vertex(v) && improve_vertex(st, v),
-                    line => improve_line_vertex(st, v, line),
-                };
-                if improved {
-                    moved += 1;
-                    next[v.idx()] = true;
-                    for h in st.mesh.outgoing(v) {
-                        next[st.mesh.to_vertex(h).idx()] = true;
-                    }
-                }
-            }
-        }
-        if moved == before {
-            break;
-        }
-        dirty = next;
-    }
-    Ok(moved)
-}
-
-/// The one-ring of a vertex as it stands, against which the shape pass
-/// scores candidate positions. A score is the ring's smallest angle as minus
-/// its cosine (monotone in the angle, no `acos`).
-struct Probe {
-    v: VertexId,
-    /// The ring faces as (a, b) with (v, a, b) counter-clockwise.
-    ring: Vec<(VertexId, VertexId)>,
-    /// Their normals (unnormalised) with `v` where it is.
-    normals: Vec<DVec3>,
-    /// The score where `v` is.
-    current: f64,
-    /// Edges at `v` outside the length band where `v` is.
-    out_of_band: usize,
-}
-
-impl Probe {
-    /// The probe of `v`, or `None` when its ring already fails the checks
-    /// (see [`Probe::score`]) where it is.
-    fn new(st: &State, v: VertexId, up: Option<DVec3>) -> Option<Self> {
-        let m = &st.mesh;
-        let p = m.position(v);
-        let ring: Vec<(VertexId, VertexId)> = m
-            .outgoing(v)
-            .filter(|&h| !m.is_boundary_halfedge(h))
-            .map(|h| (m.to_vertex(h), m.to_vertex(m.next(h))))
-            .collect();
-        let normals = ring
-            .iter()
-            .map(|&(a, b)| triangle_cross([p, m.position(a), m.position(b)]))
-            .collect();
-        let mut probe = Self {
-            v,
-            ring,
-            normals,
-            current: f64::NEG_INFINITY,
-            out_of_band: out_of_band(st, v, p),
-        };
-        probe.current = probe.score(st, p, up)?;
-        Some(probe)
-    }
-
-    /// The score with `v` at `p`, or `None` when a ring face degenerates,
-    /// turns by 60° or more, or faces away from `up`.
-    fn score(&self, st: &State, p: DVec3, up: Option<DVec3>) -> Option<f64> {
-        self.score_above(st, p, up, f64::NEG_INFINITY)
-    }
-
-    /// [`Probe::score`], or `None` as soon as one ring face scores `floor`
-    /// or less (the move cannot beat a score of `floor`).
-    fn score_above(&self, st: &State, p: DVec3, up: Option<DVec3>, floor: f64) -> Option<f64> {
-        let m = &st.mesh;
-        let mut worst = f64::INFINITY;
-        for (&(a, b), &n0) in self.ring.iter().zip(&self.normals) {
-            let t = [p, m.position(a), m.position(b)];
-            let n = triangle_cross(t);
-            let ln = n.length();
-            if ln <= 0.0
-                || n.dot(n0) <= MAX_NORMAL_CHANGE_COS * ln * n0.length()
-                || up.is_some_and(|u| n.dot(u) <= 0.0)
-                || triangle_quality(t) < MIN_QUALITY
-            {
-                return None;
-            }
-            worst = worst.min(-triangle_min_angle_cos(t));
-            if worst <= floor {
-                return None;
-            }
-        }
-        Some(worst)
-    }
-
-    /// The score at `p` when it beats the current one and `beat` (the best
-    /// candidate so far) and at most [`SHAPE_BAND_SLACK`] more edges leave
-    /// the band.
-    fn gain(&self, st: &State, p: DVec3, up: Option<DVec3>, beat: Option<f64>) -> Option<f64> {
-        if out_of_band(st, self.v, p) > self.out_of_band + SHAPE_BAND_SLACK {
-            return None;
-        }
-        let floor = self.current + 1e-9;
-        self.score_above(st, p, up, beat.map_or(floor, |b| b.max(floor)))
-    }
-}
-
-/// How many edges at `v` (placed at `p`) leave the band [4/5, 4/3] of their
-/// target.
-fn out_of_band(st: &State, v: VertexId, p: DVec3) -> usize {
-    let m = &st.mesh;
-    m.outgoing(v)
-        .filter(|&h| {
-            let w = m.to_vertex(h);
-            let l = p.distance(m.position(w)) / st.edge_target(v, w);
-            !(COLLAPSE_FACTOR..=SPLIT_FACTOR).contains(&l)
-        })
-        .count()
-}
-
 /// Records that `v` now sits over `cp`: its hint face and, under a sizing
 /// field, its target.
-fn settle(st: &mut State, v: VertexId, cp: &ClosestPoint) {
+pub(super) fn settle(st: &mut State, v: VertexId, cp: &ClosestPoint) {
     st.hint_face[v.idx()] = cp.face;
     if let Some(field) = &st.sizing {
         st.size[v.idx()] = field.size_at(cp.face, cp.barycentric);
     }
-}
-
-fn improve_vertex(st: &mut State, v: VertexId) -> bool {
-    let up = st.input_normals[st.hint_face[v.idx()] as usize];
-    let Some(probe) = Probe::new(st, v, Some(up)) else {
-        return false;
-    };
-    let m = &st.mesh;
-    let p = m.position(v);
-    let mut best: Option<(f64, DVec3)> = None;
-    for &(a, b) in &probe.ring {
-        let (pa, pb) = (m.position(a), m.position(b));
-        if triangle_min_angle_cos([p, pa, pb]) <= SHAPE_COS {
-            continue;
-        }
-        let ab = pb - pa;
-        let mid = 0.5 * (pa + pb);
-        let off = p - mid;
-        let perp = (off - ab * (off.dot(ab) / ab.length_squared())).normalize_or_zero();
-        if perp == DVec3::ZERO {
-            continue;
-        }
-        let apex = mid + perp * (0.5 * 3f64.sqrt() * ab.length());
-        for t in [1.0, 0.5, 0.25] {
-            // Scored where it is, off the surface by a fraction of the
-            // chord sag; only the winner pays for a projection.
-            let q = p + t * (apex - p);
-            if let Some(score) = probe.gain(st, q, Some(up), best.map(|b| b.0)) {
-                best = Some((score, q));
-            }
-        }
-    }
-    let Some((_, q)) = best else {
-        return false;
-    };
-    let Some(cp) = walk_closest(st, q, st.hint_face[v.idx()], st.size[v.idx()]) else {
-        return false;
-    };
-    let up = st.input_normals[cp.face as usize];
-    if probe.gain(st, cp.point, Some(up), None).is_none() {
-        return false;
-    }
-    st.mesh.set_position(v, cp.point);
-    settle(st, v, &cp);
-    true
-}
-
-/// [`improve_vertex`] for a vertex on feature line `line`: it slides along
-/// the line, toward either line neighbour by 15, 30 or 45 % of the way, and
-/// is projected back onto the input's line. A vertex whose ring has faces
-/// on both sides of a crease has no single "up" direction; the 60° turn
-/// limit per face keeps the move from folding either side.
-fn improve_line_vertex(st: &mut State, v: VertexId, line: u32) -> bool {
-    let m = &st.mesh;
-    let p = m.position(v);
-    let neighbours: Vec<DVec3> = m
-        .outgoing(v)
-        .filter(|h| st.edge_line[h.edge().idx()] == line)
-        .map(|h| m.position(m.to_vertex(h)))
-        .collect();
-    if neighbours.len() != 2 {
-        return false;
-    }
-    let Some(probe) = Probe::new(st, v, None) else {
-        return false;
-    };
-    let hint = st.hint_seg[v.idx()];
-    let mut best: Option<(f64, DVec3, u32)> = None;
-    for &n in &neighbours {
-        for t in [0.15, 0.3, 0.45] {
-            let lp = st
-                .features
-                .closest_on_line_near(line, p + t * (n - p), hint);
-            if let Some(score) = probe.gain(st, lp.point, None, best.map(|b| b.0)) {
-                best = Some((score, lp.point, lp.segment));
-            }
-        }
-    }
-    let Some((_, q, seg)) = best else {
-        return false;
-    };
-    st.mesh.set_position(v, q);
-    st.hint_seg[v.idx()] = seg;
-    if let Some(cp) = st.index.closest_point_with_hint(q, st.hint_face[v.idx()]) {
-        settle(st, v, &cp);
-    }
-    true
 }

@@ -14,7 +14,7 @@ use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
 use super::state::{State, SPLIT_FACTOR};
-use super::RemeshError;
+use super::{Cancel, RemeshError};
 use crate::geometry::triangle_cross;
 use crate::mesh::{EdgeId, Handle};
 
@@ -26,10 +26,7 @@ fn excess(st: &State, e: EdgeId) -> f64 {
 }
 
 /// Splits long edges until none is left; returns the number of splits.
-pub(super) fn split_long_edges(
-    st: &mut State,
-    cancelled: &dyn Fn() -> bool,
-) -> Result<u64, RemeshError> {
+pub(super) fn split_long_edges(st: &mut State, cancel: &Cancel) -> Result<u64, RemeshError> {
     // Max-heap on the excess ratio (positive floats order like their bits);
     // ties go to the lower edge index, so the order is deterministic.
     // The long edges are found in parallel; the heap is built in O(n).
@@ -83,9 +80,7 @@ pub(super) fn split_long_edges(
                 }
             }
         }
-        if count % 4096 == 0 && cancelled() {
-            return Err(RemeshError::Cancelled);
-        }
+        cancel.every(count)?;
     }
     Ok(count)
 }
@@ -118,10 +113,7 @@ const DEVIATION_NORMAL_COS: f64 = 0.866_025_403_784_438_6;
 /// Uniform sizing only (with or without `refine_curved`): adaptive sizing
 /// derives its lengths from a distance tolerance of its own, against which
 /// a fraction of the local target means nothing.
-pub(super) fn split_deviating_edges(
-    st: &mut State,
-    cancelled: &dyn Fn() -> bool,
-) -> Result<u64, RemeshError> {
+pub(super) fn split_deviating_edges(st: &mut State, cancel: &Cancel) -> Result<u64, RemeshError> {
     if st.uniform.is_none() {
         return Ok(0);
     }
@@ -147,9 +139,7 @@ pub(super) fn split_deviating_edges(
     });
     let mut count = 0u64;
     for (k, &(i, ends, p, face)) in candidates.iter().enumerate() {
-        if k % 4096 == 0 && cancelled() {
-            return Err(RemeshError::Cancelled);
-        }
+        cancel.every(k as u64)?;
         let e = EdgeId(i);
         if st.mesh.is_edge_deleted(e) {
             continue;

@@ -9,6 +9,8 @@
 
 use rayon::prelude::*;
 
+pub(crate) use crate::topology::UnionFind;
+
 /// One undirected edge `a < b` and the number of face sides on it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct Edge {
@@ -112,40 +114,6 @@ impl EdgeTable {
             edges,
             non_manifold_edges,
             misoriented,
-        }
-    }
-}
-
-/// Disjoint-set forest over vertex ids, with path halving and union by index.
-pub(crate) struct UnionFind {
-    parent: Vec<u32>,
-}
-
-impl UnionFind {
-    pub fn new(n: usize) -> Self {
-        Self {
-            parent: (0..n as u32).collect(),
-        }
-    }
-
-    #[inline]
-    pub fn find(&mut self, mut x: u32) -> u32 {
-        while self.parent[x as usize] != x {
-            let grand = self.parent[self.parent[x as usize] as usize];
-            self.parent[x as usize] = grand;
-            x = grand;
-        }
-        x
-    }
-
-    #[inline]
-    pub fn union(&mut self, a: u32, b: u32) {
-        let (ra, rb) = (self.find(a), self.find(b));
-        if ra != rb {
-            // Attach the larger root under the smaller: deterministic, and
-            // with path halving the trees stay shallow in practice.
-            let (lo, hi) = (ra.min(rb), ra.max(rb));
-            self.parent[hi as usize] = lo;
         }
     }
 }

@@ -69,6 +69,7 @@ pub struct Part {
 }
 
 /// A suite that has its part and is running; records its outcome on drop.
+#[derive(Debug)]
 pub struct Run {
     suite: &'static str,
     started: Instant,

@@ -53,9 +53,11 @@ const CHUNK: usize = 16 * 1024;
 /// Inputs of [`compute`] besides the mesh.
 #[derive(Clone, Copy, Debug)]
 pub struct StatsOptions<'a> {
-    /// Target edge length L for the band and histogram; default (and when
-    /// not finite and positive): the per-vertex targets' mean if given,
-    /// otherwise the mean edge length.
+    /// Target edge length L: the reference of the band and histogram
+    /// unless `vertex_target` is given (then L is only the unit of the
+    /// `against_mean_target` view and of the length figures). Default (and
+    /// when not finite and positive): the per-vertex targets' mean if
+    /// given, otherwise the mean edge length.
     pub target_edge_length: Option<f64>,
     /// Surface to measure the distance to (the job's input, for its output).
     pub reference: Option<&'a TriMesh>,
@@ -70,7 +72,9 @@ pub struct StatsOptions<'a> {
     /// What the mesh builder repaired, copied into the statistics.
     pub repairs: Option<RepairReport>,
     /// Per-vertex target edge length (adaptive sizing), one per position;
-    /// ignored when its length differs from the vertex count.
+    /// when given, the band and histogram measure each edge against the
+    /// mean of its end points' targets (`local_target`). Ignored when its
+    /// length differs from the vertex count.
     pub vertex_target: Option<&'a [f64]>,
     /// Detect features with these options and report the `features`
     /// section (with its fidelity to `reference`, if given).

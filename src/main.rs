@@ -122,6 +122,11 @@ struct RemeshArgs {
     /// Output format (default: from OUTPUT's extension).
     #[arg(long)]
     output_format: Option<Format>,
+    /// Write per-element quality into the output (glTF, GLB or PLY only):
+    /// per face the smallest angle and the edge-length ratio to the local
+    /// target, per vertex the valence.
+    #[arg(long)]
+    quality_attributes: bool,
     /// Worker threads (default: all cores). The output does not depend on it.
     #[arg(long)]
     threads: Option<usize>,
@@ -280,6 +285,7 @@ fn remesh_command(a: RemeshArgs) -> Result<(), Failure> {
         tolerance_ratio: a.tolerance_ratio,
         min_edge_length: a.min_edge_length,
         max_edge_length: a.max_edge_length,
+        quality_attributes: a.quality_attributes,
         ..Default::default()
     };
     if let Some(n) = a.iterations {
@@ -307,6 +313,12 @@ fn remesh_command(a: RemeshArgs) -> Result<(), Failure> {
         o.refine_curved = r;
     }
     o.validate().map_err(|e| Failure(e.to_string()))?;
+    if o.quality_attributes && !out_format.stores_attributes() {
+        return Err(fail(
+            &a.output,
+            format!("--quality-attributes needs glTF, GLB or PLY output, not {out_format}"),
+        ));
+    }
     let input = load(&a.input, a.format)?;
     let bar = std::io::stderr().is_terminal().then(|| {
         let b = indicatif::ProgressBar::new(1000);
@@ -323,11 +335,19 @@ fn remesh_command(a: RemeshArgs) -> Result<(), Failure> {
         b.finish_and_clear();
     }
     let (mesh, out) = result?;
-    let bytes = pipeline::encode(&mesh, out_format).map_err(|e| fail(&a.output, e))?;
+    let attributes = if o.quality_attributes {
+        pipeline::quality_attributes(&mesh, &out, &o)
+    } else {
+        Default::default()
+    };
+    let bytes =
+        pipeline::encode_with(&mesh, out_format, &attributes).map_err(|e| fail(&a.output, e))?;
     std::fs::write(&a.output, bytes).map_err(|e| fail(&a.output, e))?;
     if let Some(path) = &a.stats {
         let stats = pipeline::measure(&input, &out, &o);
+        print!("{}", stats.headline.render());
         let doc = serde_json::json!({
+            "headline": stats.headline,
             "input": stats.input,
             "output": stats.output,
             "report": out.report,

@@ -7,10 +7,10 @@ use serde::{Deserialize, Serialize};
 
 use crate::bvh::SurfaceIndex;
 use crate::features::FeatureOptions;
-use crate::io::{self, Format, ReadOptions, WriteOptions};
+use crate::io::{self, Attribute, Attributes, Format, ReadOptions, WriteOptions};
 use crate::mesh::{BuildError, Mesh, RepairReport, EDGE_FEATURE};
 use crate::remesh::{self, Observer, RemeshError, RemeshOptions, RemeshReport};
-use crate::stats::{self, MeshStats, StatsOptions};
+use crate::stats::{self, Headline, MeshStats, StatsOptions};
 use crate::trimesh::TriMesh;
 
 /// Area samples per side for the distance statistics of a job: the
@@ -67,9 +67,14 @@ pub fn load(
 /// Input and output statistics of a job.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct JobStats {
+    /// The output's headline figures (edge-length histogram against the
+    /// job's reference, valence deviation): the same figures as in
+    /// `output`, first and in a small fixed block.
+    pub headline: Headline,
     /// The input as read (welded, as the benchmark sees it; `repairs` says
-    /// what was fixed before remeshing), measured against the job's target
-    /// length.
+    /// what was fixed before remeshing), measured against the same
+    /// reference as the output: the target length L under uniform sizing,
+    /// the local size field under adaptive sizing.
     pub input: MeshStats,
     /// The output, with its distance to the input.
     pub output: MeshStats,
@@ -80,6 +85,9 @@ pub struct JobStats {
 pub struct JobOutput {
     /// The remeshed surface, with per-vertex normals split along features.
     pub mesh: TriMesh,
+    /// Per-element quality of `mesh` to write with it (empty unless the
+    /// options ask for `quality_attributes`).
+    pub attributes: Attributes,
     /// Input and output statistics.
     pub stats: JobStats,
     /// What the remesher did.
@@ -94,8 +102,14 @@ pub fn run(
 ) -> Result<JobOutput, JobError> {
     let (mesh, out) = remesh_only(input, options, observer)?;
     let stats = measure(input, &out, options);
+    let attributes = if options.quality_attributes {
+        quality_attributes(&mesh, &out, options)
+    } else {
+        Attributes::default()
+    };
     Ok(JobOutput {
         mesh,
+        attributes,
         stats,
         report: out.report,
     })
@@ -131,8 +145,9 @@ fn output_trimesh(out: &remesh::RemeshOutput) -> TriMesh {
     tm
 }
 
-/// Input and output statistics of a finished remesh: the input against the
-/// job's target length, the output with its distance to the input.
+/// Input and output statistics of a finished remesh, both against the
+/// job's reference (the target length L under uniform sizing, the size
+/// field under adaptive sizing), the output with its distance to the input.
 pub fn measure(
     input: &LoadedInput,
     out: &remesh::RemeshOutput,
@@ -144,7 +159,8 @@ pub fn measure(
     let l = out.report.target_edge_length;
     // The repaired surface (no degenerate faces) answers the distance
     // queries; it is the same surface as the source's.
-    let index = SurfaceIndex::from_trimesh(&input.mesh.to_trimesh());
+    let repaired = input.mesh.to_trimesh();
+    let index = SurfaceIndex::from_trimesh(&repaired);
     let features = Some(FeatureOptions {
         preserve_features: options.preserve_features,
         feature_angle_deg: options.feature_angle,
@@ -153,10 +169,13 @@ pub fn measure(
         min_crease_length: 0.0,
         ..FeatureOptions::default()
     });
+    let input_target =
+        adaptive.then(|| source_targets(input_tm, &repaired, &out.input_vertex_target));
     let input_stats = stats::compute(
         input_tm,
         &StatsOptions {
-            target_edge_length: Some(l),
+            target_edge_length: (!adaptive).then_some(l),
+            vertex_target: input_target.as_deref(),
             repairs: Some(input.repairs),
             features,
             ..Default::default()
@@ -175,12 +194,75 @@ pub fn measure(
         },
     );
     JobStats {
+        headline: output_stats.headline(),
         input: input_stats,
         output: output_stats,
     }
 }
 
+/// The target at each position of `source`, from `targets` given per
+/// position of `repaired`, matched by coordinates: the repaired input keeps
+/// the positions it read, and the written output keeps the remesher's
+/// (normals only split them). Positions without a match (used by no face
+/// the repair kept) get the mean target, so that they shift no figure.
+fn source_targets(source: &TriMesh, repaired: &TriMesh, targets: &[f64]) -> Vec<f64> {
+    let key = |p: glam::DVec3| [p.x, p.y, p.z].map(|c| (c + 0.0).to_bits());
+    let by_position: std::collections::HashMap<[u64; 3], f64> = repaired
+        .positions
+        .iter()
+        .zip(targets)
+        .map(|(&p, &t)| (key(p), t))
+        .collect();
+    let mean = targets.iter().sum::<f64>() / targets.len().max(1) as f64;
+    source
+        .positions
+        .iter()
+        .map(|&p| by_position.get(&key(p)).copied().unwrap_or(mean))
+        .collect()
+}
+
 /// Encodes a result mesh in `format`, with normals.
 pub fn encode(mesh: &TriMesh, format: Format) -> Result<Vec<u8>, JobError> {
     Ok(io::write(mesh, format, &WriteOptions::default())?)
+}
+
+/// Encodes a result mesh in `format`, with normals and `attributes` (glTF,
+/// GLB and PLY only, when there are any).
+pub fn encode_with(
+    mesh: &TriMesh,
+    format: Format,
+    attributes: &Attributes,
+) -> Result<Vec<u8>, JobError> {
+    Ok(io::write_with_attributes(
+        mesh,
+        format,
+        &WriteOptions::default(),
+        attributes,
+    )?)
+}
+
+/// The `quality_attributes` of a remesh's written `mesh` (as
+/// [`remesh_only`] returns it): per face `quality_min_angle` (smallest
+/// angle, degrees) and `quality_edge_ratio` (mean edge length over the
+/// mean target of its corners: L under uniform sizing, the size field
+/// under adaptive sizing, as the statistics measure), per vertex `valence`.
+pub fn quality_attributes(
+    mesh: &TriMesh,
+    out: &remesh::RemeshOutput,
+    options: &RemeshOptions,
+) -> Attributes {
+    let targets = (options.sizing == remesh::Sizing::Adaptive)
+        .then(|| source_targets(mesh, &out.mesh.to_trimesh(), &out.vertex_target));
+    let q = stats::element_quality(mesh, out.report.target_edge_length, targets.as_deref());
+    let named = |name: &str, values: Vec<f32>| Attribute {
+        name: name.to_string(),
+        values,
+    };
+    Attributes {
+        vertex: vec![named("valence", q.vertex_valence)],
+        face: vec![
+            named("quality_min_angle", q.face_min_angle),
+            named("quality_edge_ratio", q.face_edge_ratio),
+        ],
+    }
 }

@@ -111,7 +111,87 @@ fn remesh_writes_the_output_format_of_its_extension_and_stats() {
             serde_json::from_slice(&std::fs::read(&stats_path).unwrap()).unwrap();
         assert!(s["output"]["distance"]["hausdorff_relative"].is_number());
         assert!(s["input"]["faces"] == 12);
+        // The headline block leads the JSON and is what stdout shows.
+        assert_eq!(s["headline"], s_headline_of(&s["output"]), "{ext}");
+        let text = String::from_utf8_lossy(&st.stdout);
+        assert!(text.starts_with("headline  "), "{text}");
+        assert!(text.contains("valence deviation"), "{text}");
     }
+}
+
+/// The headline block as the output statistics' own figures give it.
+fn s_headline_of(out: &serde_json::Value) -> serde_json::Value {
+    let e = &out["edge_length"];
+    let v = &out["valence"];
+    serde_json::json!({
+        "edge_length": {
+            "reference": e["reference"],
+            "target": e["target"],
+            "band": e["band"],
+            "within_band": e["within_band"],
+            "histogram": e["histogram"],
+        },
+        "valence": {
+            "mean_abs_deviation": v["mean_abs_deviation"],
+            "interior_mean_abs_deviation": v["interior_mean_abs_deviation"],
+            "boundary_mean_abs_deviation": v["boundary_mean_abs_deviation"],
+        },
+    })
+}
+
+#[test]
+fn stats_text_opens_with_the_headline_block() {
+    let out = bin()
+        .args(["stats", data_support::path("spot.obj").to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    let lines: Vec<&str> = text.lines().collect();
+    assert!(lines[1].starts_with("headline  "), "{text}");
+    assert!(
+        lines[1].contains("% of edges in the band [0.80, 1.33]"),
+        "{text}"
+    );
+    assert!(lines[2].contains("bins of 0.1 from 0"), "{text}");
+    assert!(lines[3].contains("valence deviation"), "{text}");
+}
+
+#[test]
+fn quality_attributes_go_into_ply_and_not_into_obj() {
+    let dir = tempfile::tempdir().unwrap();
+    let ply = dir.path().join("q.ply");
+    let st = bin()
+        .args([
+            "remesh",
+            data_support::path("cube.obj").to_str().unwrap(),
+            ply.to_str().unwrap(),
+            "--target-edge-ratio",
+            "0.1",
+            "--quality-attributes",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        st.status.success(),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
+    let bytes = std::fs::read(&ply).unwrap();
+    let head = String::from_utf8_lossy(&bytes[..400]);
+    assert!(head.contains("property float quality_min_angle"), "{head}");
+    let obj = dir.path().join("q.obj");
+    expect_failure(
+        &[
+            "remesh",
+            data_support::path("cube.obj").to_str().unwrap(),
+            obj.to_str().unwrap(),
+            "--quality-attributes",
+        ],
+        "q.obj",
+        "gltf, glb or ply",
+    );
+    assert!(!obj.exists());
 }
 
 #[test]
@@ -134,7 +214,12 @@ fn every_bad_input_gives_one_line_and_a_non_zero_exit() {
     let truncated = write("truncated.glb", &duck[..duck.len() / 2]);
     expect_failure(&["stats", &truncated], "truncated.glb", "");
     let bad_index = write("bad_index.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n");
-    expect_failure(&["stats", &bad_index], "bad_index.obj", "");
+    // In the file's own numbering: line 4, face 1, vertex 9 of 1 to 3.
+    expect_failure(
+        &["stats", &bad_index],
+        "bad_index.obj",
+        "line 4: face 1 refers to vertex 9, but the file has 3 vertices, numbered 1 to 3",
+    );
     let nan = write("nan.obj", b"v 0 0 0\nv 1 nan 0\nv 0 1 0\nf 1 2 3\n");
     expect_failure(&["stats", &nan], "nan.obj", "");
     let empty = write("empty.obj", b"# nothing here\n");

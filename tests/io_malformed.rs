@@ -12,6 +12,11 @@ fn read(bytes: &[u8], format: Format) -> Result<io::Imported, IoError> {
     if let Err(e) = &r {
         let msg = e.to_string();
         assert!(!msg.contains('\n'), "multi-line message: {msg:?}");
+        // A saturated count or offset must never read as a real number.
+        assert!(
+            !msg.contains("18446744073709551615"),
+            "saturated value in: {msg}"
+        );
         assert!(
             !matches!(e, IoError::Panic { .. }),
             "a parser panicked: {msg}"
@@ -415,22 +420,57 @@ fn non_finite_coordinates() {
 }
 
 #[test]
+fn overflowing_sizes_are_not_reported_as_saturated_numbers() {
+    // A buffer view whose offset + length overflows u64.
+    let mut doc = box_json();
+    doc["bufferViews"][0]["byteOffset"] = serde_json::json!(18_000_000_000_000_000_000u64);
+    doc["bufferViews"][0]["byteLength"] = serde_json::json!(1_000_000_000_000_000_000u64);
+    let e = box_read(&doc).unwrap_err();
+    assert!(e.to_string().contains("more than 2^64"), "{e}");
+    // An OFF count whose byte bound overflows u64.
+    let e = read(b"OFF\n10000000000000000000 1 0\n", Format::Off).unwrap_err();
+    assert!(
+        matches!(e, IoError::Truncated { .. }) && e.to_string().contains("more than 2^64"),
+        "{e}"
+    );
+}
+
+#[test]
 fn indices_out_of_range() {
     match read(
         b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 9\n",
         Format::Obj,
     ) {
-        Err(IoError::IndexOutOfRange {
-            face,
-            index,
-            vertex_count,
-        }) => assert_eq!((face, index, vertex_count), (1, 8, 3)),
+        // OBJ errors speak the file's numbering: line 5, the second face,
+        // vertex 9 as written, of vertices 1 to 3.
+        Err(e @ IoError::ObjIndexOutOfRange { .. }) => {
+            assert!(matches!(
+                e,
+                IoError::ObjIndexOutOfRange {
+                    line: 5,
+                    face: 2,
+                    index: 9,
+                    declared: 3,
+                    vertex_count: 3
+                }
+            ));
+            assert_eq!(
+                e.to_string(),
+                "line 5: face 2 refers to vertex 9, but the file has 3 vertices, numbered 1 to 3"
+            );
+        }
         r => panic!("OBJ: {:?}", r.err()),
     }
-    for (text, index) in [("f 0 1 2", -1), ("f -4 1 2", -1)] {
+    for (text, index) in [("f 0 1 2", 0), ("f -4 1 2", -4)] {
         let obj = format!("v 0 0 0\nv 1 0 0\nv 0 1 0\n{text}\n");
         match read(obj.as_bytes(), Format::Obj) {
-            Err(IoError::IndexOutOfRange { index: i, .. }) => assert_eq!(i, index, "{text}"),
+            Err(e @ IoError::ObjIndexOutOfRange { .. }) => {
+                let IoError::ObjIndexOutOfRange { index: i, line, .. } = e else {
+                    unreachable!()
+                };
+                assert_eq!((i, line), (index, 4), "{text}");
+                assert!(e.to_string().contains(&format!("vertex {index}")), "{e}");
+            }
             r => panic!("OBJ {text}: {:?}", r.err()),
         }
     }

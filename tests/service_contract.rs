@@ -361,8 +361,55 @@ fn real_responses_validate_against_the_spec() {
     s.wait_finished(&aid);
     let a = rec.get("/v1/jobs/{id}", &format!("/v1/jobs/{aid}"));
     assert!(
-        a["stats"]["output"]["edge_length"]["relative_to_size"].is_object(),
+        a["stats"]["output"]["edge_length"]["against_mean_target"].is_object(),
         "{a}"
+    );
+    // One reference on both sides, named; the headline leads.
+    for side in ["input", "output"] {
+        assert_eq!(
+            a["stats"][side]["edge_length"]["reference"], "local_target",
+            "{a}"
+        );
+    }
+    assert_eq!(
+        a["stats"]["headline"]["edge_length"]["within_band"],
+        a["stats"]["output"]["edge_length"]["within_band"]
+    );
+    assert!(done["stats"]["output"]["features"]["fidelity"]["corner_tolerance"].is_f64());
+    assert_eq!(
+        done["stats"]["headline"]["edge_length"]["histogram"]["unit"],
+        "target_length"
+    );
+    // Per-element quality in a PLY result.
+    let q = rec.submit(
+        "cube.obj",
+        cube.clone(),
+        json!({"iterations": 1, "output_format": "ply", "quality_attributes": true}),
+    );
+    let qid = q["id"].as_str().unwrap().to_string();
+    s.wait_finished(&qid);
+    let qd = rec.get("/v1/jobs/{id}", &format!("/v1/jobs/{qid}"));
+    assert_eq!(qd["params"]["quality_attributes"], true, "{qd}");
+    let body = s
+        .client
+        .get(s.url(&format!("/v1/jobs/{qid}/result")))
+        .send()
+        .unwrap()
+        .bytes()
+        .unwrap();
+    let header = String::from_utf8_lossy(&body[..body.len().min(600)]).to_string();
+    for line in [
+        "property float valence",
+        "property float quality_min_angle",
+        "property float quality_edge_ratio",
+    ] {
+        assert!(header.contains(line), "{header}");
+    }
+    // ... which OBJ cannot carry, and a name given twice.
+    rec.submit(
+        "cube.obj",
+        cube.clone(),
+        json!({"output_format": "obj", "quality_attributes": true}),
     );
     rec.get("/v1/jobs/{id}/result", &format!("/v1/jobs/{id}/result"));
     rec.get(

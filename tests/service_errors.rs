@@ -208,6 +208,20 @@ fn bad_parameters_name_their_field() {
         vec![],
     );
     assert_problem(r, 422, Some("target_faces"));
+    // An estimate beyond u64 is quoted as it is, never as a saturated
+    // 18446744073709551615.
+    for (l, expect) in [(1e-12, "e2"), (1e-300, "unboundedly many")] {
+        let r = s.submit(
+            "cube.obj",
+            cube.clone(),
+            Some(json!({ "target_edge_length": l })),
+            vec![],
+        );
+        let p = assert_problem(r, 422, Some("target_edge_length"));
+        let detail = p["detail"].as_str().unwrap();
+        assert!(!detail.contains("18446744073709551615"), "{detail}");
+        assert!(detail.contains(expect), "{detail}");
+    }
     let r = s.submit_raw(
         "model/obj",
         cube.clone(),
@@ -216,6 +230,25 @@ fn bad_parameters_name_their_field() {
     assert_problem(r, 422, Some("min_edge_length"));
     let r = s.submit_raw("model/obj", cube.clone(), "?sizing=adaptive&tolerance=1e-7");
     assert_problem(r, 422, Some("tolerance"));
+
+    // A name given twice in the params JSON is refused, naming it.
+    let form = reqwest::blocking::multipart::Form::new()
+        .part(
+            "mesh",
+            reqwest::blocking::multipart::Part::bytes(cube.clone()).file_name("cube.obj"),
+        )
+        .text("params", r#"{"iterations": 2, "iterations": 3}"#);
+    let r = s
+        .client
+        .post(s.url("/v1/jobs"))
+        .multipart(form)
+        .send()
+        .unwrap();
+    let p = assert_problem(r, 422, Some("iterations"));
+    assert!(
+        p["detail"].as_str().unwrap().contains("more than once"),
+        "{p}"
+    );
 
     // Listing and download parameters.
     assert_problem(s.get("/v1/jobs?status=done"), 422, Some("status"));

@@ -140,7 +140,8 @@ fn flat_grid_has_one_boundary_loop_and_known_valences() {
     assert!(close(e.within_band, axis_edges as f64 / total, 1e-15));
     assert_eq!(e.histogram.counts[10], axis_edges);
     assert_eq!(e.histogram.counts[14], diagonals);
-    assert!(e.relative_to_size.is_none() && e.target_min.is_none());
+    assert!(e.against_mean_target.is_none() && e.target_min.is_none());
+    assert_eq!(e.reference, isoremesh::stats::Unit::TargetLength);
 
     // Right isosceles triangles: two 45° and one 90° angle each.
     let a = s.angles.as_ref().unwrap();
@@ -316,8 +317,17 @@ fn per_vertex_targets_give_relative_lengths() {
     assert!(close(e.target, mean_target, 1e-15));
     assert!(close(e.target_min.unwrap(), h / 1.05, 1e-15));
     assert!(close(e.target_max.unwrap(), 2.0 * h / 1.05, 1e-15));
-    let rel = e.relative_to_size.as_ref().unwrap();
+    // With per-vertex targets the top-level band and histogram are
+    // against the local target; the mean target is a named second view.
+    assert_eq!(e.reference, isoremesh::stats::Unit::LocalTarget);
+    let rel = e;
     assert_eq!(rel.histogram.counts.iter().sum::<u64>(), s.edges);
+    let global = e.against_mean_target.as_ref().unwrap();
+    assert_eq!(
+        global.histogram.unit,
+        isoremesh::stats::Unit::MeanLocalTarget
+    );
+    assert_eq!(global.histogram.reference_length, Some(e.target));
     // Count by hand.
     let mut in_band = 0u64;
     let mut hist = [0u64; 21];
@@ -351,7 +361,7 @@ fn per_vertex_targets_give_relative_lengths() {
             ..Default::default()
         },
     );
-    assert!(s2.edge_length.unwrap().relative_to_size.is_none());
+    assert!(s2.edge_length.unwrap().against_mean_target.is_none());
 }
 
 #[test]
@@ -475,16 +485,29 @@ fn json_field_names() {
         "target",
         "target_min",
         "target_max",
+        "reference",
+        "band",
         "within_band",
         "histogram",
-        "relative_to_size",
+        "against_mean_target",
     ] {
         assert!(e.get(k).is_some(), "missing edge_length.{k}");
     }
     assert!(e["histogram"]["bin_width"].is_f64());
     assert_eq!(e["histogram"]["counts"].as_array().unwrap().len(), 21);
-    assert!(e["relative_to_size"]["histogram"]["counts"].is_array());
-    assert!(e["relative_to_size"]["within_band"].is_f64());
+    for k in [
+        "unit",
+        "reference_length",
+        "origin",
+        "bin_edges",
+        "open_last_bin",
+    ] {
+        assert!(e["histogram"].get(k).is_some(), "missing histogram.{k}");
+    }
+    assert_eq!(e["histogram"]["bin_edges"].as_array().unwrap().len(), 21);
+    assert_eq!(e["band"]["unit"], e["histogram"]["unit"]);
+    assert!(e["against_mean_target"]["histogram"]["counts"].is_array());
+    assert!(e["against_mean_target"]["within_band"].is_f64());
     let val = &v["valence"];
     for k in [
         "histogram",
@@ -532,7 +555,7 @@ fn json_field_names() {
     // Without reference and targets these keys are absent.
     let plain = serde_json::to_value(stats(&m)).unwrap();
     assert!(plain.get("distance").is_none() && plain.get("repairs").is_none());
-    assert!(plain["edge_length"].get("relative_to_size").is_none());
+    assert!(plain["edge_length"].get("against_mean_target").is_none());
     // And the summary mentions every group.
     let text = s.summary();
     for word in [

@@ -14,7 +14,7 @@ pub enum IoError {
     },
     /// The data ends before a structure it declares.
     #[error(
-        "{format} data is truncated: {what} needs {needed} bytes but only {available} are present"
+        "{format} data is truncated: {what} needs {} bytes but only {available} are present", byte_end_text(*.needed)
     )]
     Truncated {
         /// The format being read.
@@ -35,7 +35,7 @@ pub enum IoError {
         expected: &'static str,
     },
     /// A glTF accessor reaches past the end of its buffer view or buffer.
-    #[error("glTF accessor {accessor} is out of bounds: it needs bytes up to {needed} but {within} has only {available}")]
+    #[error("glTF accessor {accessor} is out of bounds: it needs bytes up to {} but {within} has only {available}", byte_end_text(*.needed))]
     AccessorOutOfBounds {
         /// Accessor index.
         accessor: usize,
@@ -76,6 +76,23 @@ pub enum IoError {
     NonFinite {
         /// Vertex index (0-based, in the order the reader produced them).
         vertex: u64,
+    },
+    /// An OBJ face refers to a vertex that does not exist, reported in the
+    /// file's own numbering: lines, faces and vertices counted from 1, the
+    /// index as written (negative indices count back from the last vertex
+    /// declared before the face).
+    #[error("line {line}: face {face} refers to vertex {index}, but {}", obj_vertices_text(*.index, *.declared, *.vertex_count))]
+    ObjIndexOutOfRange {
+        /// Line of the face (1-based).
+        line: u64,
+        /// Face number (1-based, counting `f` lines).
+        face: u64,
+        /// The offending index as written in the file.
+        index: i64,
+        /// Vertices declared before the face (the base of negative indices).
+        declared: u64,
+        /// Vertices in the whole file.
+        vertex_count: u64,
     },
     /// A face refers to a vertex that does not exist.
     #[error("face {face} refers to vertex {index}, but there are only {vertex_count} vertices (indices counted from 0)")]
@@ -150,5 +167,25 @@ impl IoError {
             format,
             message: one_line(message.as_ref()),
         }
+    }
+}
+
+/// The second half of [`IoError::ObjIndexOutOfRange`]'s message, in OBJ's
+/// numbering.
+fn obj_vertices_text(index: i64, declared: u64, vertex_count: u64) -> String {
+    if index < 0 {
+        format!("only {declared} vertices are declared before it (relative indices run from -1 to -{declared})")
+    } else {
+        format!("the file has {vertex_count} vertices, numbered 1 to {vertex_count}")
+    }
+}
+
+/// A byte position for a message; the readers saturate an overflowing end
+/// at `u64::MAX`, which must not read as a real position.
+fn byte_end_text(end: u64) -> String {
+    if end == u64::MAX {
+        "more than 2^64 (the declared sizes overflow)".to_string()
+    } else {
+        end.to_string()
     }
 }

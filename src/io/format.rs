@@ -148,6 +148,12 @@ impl Format {
         })
     }
 
+    /// Whether the format can carry per-element attributes (see
+    /// [`super::Attributes`]): glTF, GLB and PLY.
+    pub fn stores_attributes(self) -> bool {
+        matches!(self, Format::Gltf | Format::Glb | Format::Ply)
+    }
+
     /// The usual file extension, without the dot.
     pub fn extension(self) -> &'static str {
         match self {

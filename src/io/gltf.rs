@@ -31,7 +31,7 @@ use json::accessor::{ComponentType, GenericComponentType, IndexComponentType, Ty
 use json::mesh::{Mode, Semantic};
 use json::validation::{Checked, USize64};
 
-use super::{check_triangle_budget, Format, Imported, IoError, ReadOptions};
+use super::{check_triangle_budget, Attribute, Format, Imported, IoError, ReadOptions};
 use crate::{Label, Material, TriMesh};
 
 const GLB_MAGIC: &[u8; 4] = b"glTF";
@@ -931,7 +931,14 @@ fn to_json_material(m: &Material) -> (json::Material, bool) {
     (material, strength.is_some())
 }
 
-pub(super) fn write(mesh: &TriMesh, format: Format, normals: bool) -> Result<Vec<u8>, IoError> {
+/// Writes `mesh` as glTF or GLB; `extra` are per-vertex float attributes
+/// with their glTF names (`_NAME`), added to every primitive.
+pub(super) fn write(
+    mesh: &TriMesh,
+    format: Format,
+    normals: bool,
+    extra: &[Attribute],
+) -> Result<Vec<u8>, IoError> {
     let nv = mesh.positions.len();
     let f32s = |v: DVec3| [v.x as f32, v.y as f32, v.z as f32];
     let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|&p| f32s(p)).collect();
@@ -975,6 +982,12 @@ pub(super) fn write(mesh: &TriMesh, format: Format, normals: bool) -> Result<Vec
     for list in &per_label {
         list.iter()
             .for_each(|i| bin.extend_from_slice(&i.to_le_bytes()));
+    }
+    let extra_at = bin.len();
+    for a in extra {
+        a.values
+            .iter()
+            .for_each(|x| bin.extend_from_slice(&x.to_le_bytes()));
     }
 
     let mut root = json::Root {
@@ -1037,9 +1050,29 @@ pub(super) fn write(mesh: &TriMesh, format: Format, normals: bool) -> Result<Vec
     let index_view = buffer_view(
         &mut root,
         indices_at,
-        bin.len() - indices_at,
+        extra_at - indices_at,
         Target::ElementArrayBuffer,
     );
+    // Custom attributes: gltf-json only names them with its `extras`
+    // feature, so they are added to the primitives' JSON below.
+    let mut extra_accessors = Vec::with_capacity(extra.len());
+    let mut at = extra_at;
+    for a in extra {
+        let len = a.values.len() * 4;
+        let view = buffer_view(&mut root, at, len, Target::ArrayBuffer);
+        let acc = accessor(
+            &mut root,
+            view,
+            0,
+            a.values.len(),
+            ComponentType::F32,
+            Type::Scalar,
+            None,
+            None,
+        );
+        extra_accessors.push((a.name.clone(), acc.value()));
+        at += len;
+    }
 
     let mut primitives = Vec::new();
     let mut offset = 0;
@@ -1100,8 +1133,21 @@ pub(super) fn write(mesh: &TriMesh, format: Format, normals: bool) -> Result<Vec
     });
     root.scene = Some(scene);
 
-    let json_text = serde_json::to_vec(&root)
-        .map_err(|e| IoError::parse(format, format!("serializing the JSON failed: {e}")))?;
+    let ser =
+        |e: serde_json::Error| IoError::parse(format, format!("serializing the JSON failed: {e}"));
+    let json_text = if extra_accessors.is_empty() {
+        serde_json::to_vec(&root).map_err(ser)?
+    } else {
+        let mut doc = serde_json::to_value(&root).map_err(ser)?;
+        if let Some(prims) = doc["meshes"][0]["primitives"].as_array_mut() {
+            for p in prims {
+                for (name, acc) in &extra_accessors {
+                    p["attributes"][name] = serde_json::json!(acc);
+                }
+            }
+        }
+        serde_json::to_vec(&doc).map_err(ser)?
+    };
     if format == Format::Gltf {
         return Ok(json_text);
     }

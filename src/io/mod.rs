@@ -14,6 +14,7 @@
 //! Bourke's PLY and OBJ notes, Geomview's OFF description, and the 3D
 //! Systems STL layout (80-byte header, u32 count, 50-byte facets).
 
+mod attributes;
 mod error;
 mod format;
 mod gltf;
@@ -27,6 +28,7 @@ mod text;
 use std::collections::HashMap;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
+pub use attributes::{Attribute, Attributes};
 pub use error::IoError;
 pub use format::Format;
 pub use normals::with_split_normals;
@@ -110,6 +112,19 @@ pub fn read(bytes: &[u8], format: Format, opts: &ReadOptions) -> Result<Imported
 /// Fails with [`IoError::InvalidMesh`] when the mesh breaks its invariants
 /// and with [`IoError::Empty`] when it has no triangles.
 pub fn write(mesh: &TriMesh, format: Format, opts: &WriteOptions) -> Result<Vec<u8>, IoError> {
+    write_with_attributes(mesh, format, opts, &Attributes::default())
+}
+
+/// Writes a mesh with per-element attributes (see [`Attributes`] for how
+/// each format stores them). Without attributes the bytes are those of
+/// [`write`]; with attributes, formats other than glTF, GLB and PLY fail
+/// with [`IoError::Unsupported`].
+pub fn write_with_attributes(
+    mesh: &TriMesh,
+    format: Format,
+    opts: &WriteOptions,
+    attrs: &Attributes,
+) -> Result<Vec<u8>, IoError> {
     mesh.check()
         .map_err(|message| IoError::InvalidMesh { message })?;
     if mesh.triangles.is_empty() {
@@ -118,12 +133,17 @@ pub fn write(mesh: &TriMesh, format: Format, opts: &WriteOptions) -> Result<Vec<
     if let Some(v) = mesh.positions.iter().position(|p| !p.is_finite()) {
         return Err(IoError::NonFinite { vertex: v as u64 });
     }
+    attrs.check(mesh, format)?;
     let normals = opts.normals && !mesh.normals.is_empty();
     match format {
         Format::Obj => Ok(obj::write(mesh, normals)),
-        Format::Gltf | Format::Glb => gltf::write(mesh, format, normals),
+        Format::Gltf | Format::Glb if !attrs.is_empty() => {
+            let (split, extra) = attributes::per_corner(mesh, attrs);
+            gltf::write(&split, format, normals, &extra)
+        }
+        Format::Gltf | Format::Glb => gltf::write(mesh, format, normals, &[]),
         Format::Stl => Ok(stl::write(mesh, opts.binary)),
-        Format::Ply => ply::write(mesh, opts.binary, normals),
+        Format::Ply => ply::write(mesh, opts.binary, normals, attrs),
         Format::Off => Ok(off::write(mesh)),
     }
 }

@@ -173,7 +173,7 @@ fn locate_bad_index(bytes: &[u8]) -> IoError {
     };
     let total = bytes.split(|&c| c == b'\n').filter(|l| is(l, b"v")).count() as i64;
     let (mut declared, mut face) = (0i64, 0u64);
-    for line in bytes.split(|&c| c == b'\n') {
+    for (number, line) in bytes.split(|&c| c == b'\n').enumerate() {
         if is(line, b"v") {
             declared += 1;
         } else if is(line, b"f") {
@@ -185,9 +185,11 @@ fn locate_bad_index(bytes: &[u8]) -> IoError {
                 };
                 let index = if i < 0 { declared + i } else { i - 1 };
                 if index < 0 || index >= total {
-                    return IoError::IndexOutOfRange {
-                        face,
-                        index,
+                    return IoError::ObjIndexOutOfRange {
+                        line: number as u64 + 1,
+                        face: face + 1,
+                        index: i,
+                        declared: declared as u64,
                         vertex_count: total as u64,
                     };
                 }

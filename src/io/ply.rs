@@ -18,7 +18,7 @@ use ply_rs_bw::ply::{
 };
 use ply_rs_bw::writer::Writer;
 
-use super::{Format, Imported, IoError};
+use super::{Attributes, Format, Imported, IoError};
 use crate::TriMesh;
 
 /// A `vertex` element: position and optional normal.
@@ -325,18 +325,31 @@ pub(super) fn read(bytes: &[u8]) -> Result<Imported, IoError> {
     })
 }
 
-/// Output vertex: position and (possibly unused) normal.
-struct OutVertex {
+/// Output vertex: position, (possibly unused) normal and the values of
+/// the extra float properties named in `names`.
+struct OutVertex<'a> {
     p: DVec3,
     n: DVec3,
+    names: &'a [String],
+    extra: Vec<f32>,
 }
 
-impl PropertyAccess for OutVertex {
+/// The value of the extra property `name`, if it is one.
+fn extra_value(names: &[String], extra: &[f32], name: &str) -> Option<f32> {
+    names.iter().position(|n| n == name).map(|k| extra[k])
+}
+
+impl PropertyAccess for OutVertex<'_> {
     fn new() -> Self {
         OutVertex {
             p: DVec3::ZERO,
             n: DVec3::ZERO,
+            names: &[],
+            extra: Vec::new(),
         }
+    }
+    fn get_float(&self, name: &str) -> Option<f32> {
+        extra_value(self.names, &self.extra, name)
     }
     fn get_double(&self, name: &str) -> Option<f64> {
         Some(match name {
@@ -351,19 +364,37 @@ impl PropertyAccess for OutVertex {
     }
 }
 
-/// Output face: one triangle.
-struct OutFace([u32; 3]);
+/// Output face: one triangle and the values of its extra float properties.
+struct OutFace<'a> {
+    t: [u32; 3],
+    names: &'a [String],
+    extra: Vec<f32>,
+}
 
-impl PropertyAccess for OutFace {
+impl PropertyAccess for OutFace<'_> {
     fn new() -> Self {
-        OutFace([0; 3])
+        OutFace {
+            t: [0; 3],
+            names: &[],
+            extra: Vec::new(),
+        }
     }
     fn get_list_uint(&self, name: &str) -> Option<&[u32]> {
-        (name == "vertex_indices").then_some(&self.0[..])
+        (name == "vertex_indices").then_some(&self.t[..])
+    }
+    fn get_float(&self, name: &str) -> Option<f32> {
+        extra_value(self.names, &self.extra, name)
     }
 }
 
-pub(super) fn write(mesh: &TriMesh, binary: bool, normals: bool) -> Result<Vec<u8>, IoError> {
+/// Writes `mesh` as PLY, with `attrs` as extra float properties of the
+/// `vertex` and `face` elements.
+pub(super) fn write(
+    mesh: &TriMesh,
+    binary: bool,
+    normals: bool,
+    attrs: &Attributes,
+) -> Result<Vec<u8>, IoError> {
     let mut header = Header::new();
     header.encoding = if binary {
         Encoding::BinaryLittleEndian
@@ -385,12 +416,18 @@ pub(super) fn write(mesh: &TriMesh, binary: bool, normals: bool) -> Result<Vec<u
             PropertyType::Scalar(ScalarType::Double),
         ));
     }
+    let float =
+        |name: &String| PropertyDef::new(name.clone(), PropertyType::Scalar(ScalarType::Float));
+    let vnames: Vec<String> = attrs.vertex.iter().map(|a| a.name.clone()).collect();
+    vnames.iter().for_each(|n| vdef.properties.add(float(n)));
     let mut fdef = ElementDef::new("face".to_string());
     fdef.count = mesh.triangles.len();
     fdef.properties.add(PropertyDef::new(
         "vertex_indices".to_string(),
         PropertyType::List(ScalarType::UChar, ScalarType::UInt),
     ));
+    let fnames: Vec<String> = attrs.face.iter().map(|a| a.name.clone()).collect();
+    fnames.iter().for_each(|n| fdef.properties.add(float(n)));
     header.elements.add(vdef.clone());
     header.elements.add(fdef.clone());
 
@@ -405,9 +442,20 @@ pub(super) fn write(mesh: &TriMesh, binary: bool, normals: bool) -> Result<Vec<u
             } else {
                 DVec3::ZERO
             },
+            names: &vnames,
+            extra: attrs.vertex.iter().map(|a| a.values[i]).collect(),
         })
         .collect();
-    let faces: Vec<OutFace> = mesh.triangles.iter().map(|&t| OutFace(t)).collect();
+    let faces: Vec<OutFace> = mesh
+        .triangles
+        .iter()
+        .enumerate()
+        .map(|(f, &t)| OutFace {
+            t,
+            names: &fnames,
+            extra: attrs.face.iter().map(|a| a.values[f]).collect(),
+        })
+        .collect();
     let bytes_per = if binary { 8 } else { 25 };
     let mut out = Vec::with_capacity(
         256 + verts.len() * bytes_per * if normals { 6 } else { 3 } + faces.len() * 16,

@@ -135,9 +135,12 @@ pub enum RemeshError {
 }
 
 /// A face estimate for a message: whole below 10¹⁵, in scientific notation
-/// above (a `u64` would saturate at 1.8·10¹⁹ and read as a real count).
-fn face_count_text(n: f64) -> String {
-    if n < 1e15 {
+/// above (a `u64` would saturate at 1.8·10¹⁹ and read as a real count),
+/// and "unboundedly many" when not finite (a zero length).
+pub fn face_count_text(n: f64) -> String {
+    if !n.is_finite() {
+        "unboundedly many".to_string()
+    } else if n < 1e15 {
         format!("{}", n.round())
     } else {
         format!("{n:.2e}")
@@ -244,6 +247,10 @@ pub struct RemeshOutput {
     pub mesh: Mesh,
     /// Per-vertex target edge length of the output (constant when uniform).
     pub vertex_target: Vec<f64>,
+    /// The target edge length at each input vertex, as the sizing field
+    /// assigned it before the first pass, in the vertex order of the
+    /// input's [`Mesh::to_trimesh`]: what the input is measured against.
+    pub input_vertex_target: Vec<f64>,
     /// What was done.
     pub report: RemeshReport,
 }
@@ -293,6 +300,7 @@ fn run(
 
     enter(0, Pass::Prepare)?;
     let mut st = State::new(input, options, pool)?;
+    let input_vertex_target = st.size.clone();
     let mut report = RemeshReport::of_input(&st);
     report.seconds.prepare = start.elapsed().as_secs_f64();
 
@@ -356,6 +364,7 @@ fn run(
     Ok(RemeshOutput {
         mesh,
         vertex_target,
+        input_vertex_target,
         report,
     })
 }

@@ -111,6 +111,12 @@ pub struct RemeshOptions {
     pub threads: Option<usize>,
     /// Refuse inputs whose estimated output exceeds this many faces.
     pub max_output_faces: u64,
+    /// Write per-element quality into the output file (glTF, GLB or PLY):
+    /// per face the smallest angle and the edge-length ratio to the local
+    /// target, per vertex the valence (see
+    /// [`crate::pipeline::quality_attributes`]). The remesh itself does not
+    /// change. Default false.
+    pub quality_attributes: bool,
 }
 
 impl Default for RemeshOptions {
@@ -139,6 +145,7 @@ impl Default for RemeshOptions {
             gradation: DEFAULT_GRADATION,
             threads: None,
             max_output_faces: DEFAULT_MAX_OUTPUT_FACES,
+            quality_attributes: false,
         }
     }
 }

@@ -112,12 +112,24 @@ fn check_upload(svc: &Service, up: &Upload) -> Result<Checked, Problem> {
             ProblemKind::OutputTooLarge,
             format!(
                 "edges of length {:.6e} would give about {} triangles (area / (√3/4·L²)), more than the limit of {}; choose a larger {}",
-                est.edge_length, est.triangles, cfg.max_output_triangles, est.field
+                est.edge_length,
+                crate::remesh::face_count_text(est.estimate),
+                cfg.max_output_triangles,
+                est.field
             ),
         )
         .with_field(est.field));
     }
-    params.output_format.get_or_insert(loaded.format);
+    let format = *params.output_format.get_or_insert(loaded.format);
+    if params.quality_attributes && !format.stores_attributes() {
+        return Err(Problem::new(
+            ProblemKind::InvalidParameter,
+            format!(
+                "quality_attributes: the output format {format} cannot carry them; choose output_format glb, gltf or ply"
+            ),
+        )
+        .with_field("quality_attributes"));
+    }
     Ok(Checked {
         params,
         input: InputInfo {

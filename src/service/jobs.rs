@@ -140,7 +140,11 @@ pub struct JobRecord {
     pub input: InputInfo,
     /// Progress when last persisted (final progress once finished).
     pub progress: Option<Progress>,
-    /// Input and output statistics once succeeded.
+    /// Input and output statistics once succeeded. A record written by an
+    /// earlier version whose statistics have another shape keeps its job
+    /// and result, with the statistics dropped (null), rather than being
+    /// skipped as corrupt.
+    #[serde(default, deserialize_with = "stats_or_none")]
     pub stats: Option<JobStats>,
     /// The stored result once succeeded.
     pub result: Option<ResultInfo>,
@@ -364,6 +368,12 @@ pub fn rfc3339(ms: u64) -> String {
     )
 }
 
+/// [`JobRecord::stats`], or `None` when the stored value does not parse.
+fn stats_or_none<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<JobStats>, D::Error> {
+    let v = serde_json::Value::deserialize(d)?;
+    Ok(serde_json::from_value(v).ok())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -382,6 +392,21 @@ mod tests {
         job.request_cancel(CancelReason::User);
         job.request_cancel(CancelReason::Shutdown);
         assert_eq!(job.cancel_reason(), CancelReason::User);
+    }
+
+    #[test]
+    fn a_record_with_stats_of_an_earlier_shape_keeps_its_job() {
+        let mut v = serde_json::to_value(sample_record()).unwrap();
+        v["stats"] = serde_json::json!({"input": {"vertices": 3}, "output": {}});
+        let r: JobRecord = serde_json::from_value(v.clone()).unwrap();
+        assert!(r.stats.is_none());
+        assert_eq!(r.id, "j");
+        // Records without the field, or with null, read as before.
+        v.as_object_mut().unwrap().remove("stats");
+        assert!(serde_json::from_value::<JobRecord>(v)
+            .unwrap()
+            .stats
+            .is_none());
     }
 
     pub(crate) fn sample_record() -> JobRecord {

@@ -1,6 +1,6 @@
-//! Job parameters as callers send them: the same thirteen names in the
-//! `params` multipart part (JSON), the query string of a raw-body upload and
-//! the CLI's long flags. They convert into [`RemeshOptions`], never the
+//! Job parameters as callers send them: the same names ([`PARAM_NAMES`]) in
+//! the `params` multipart part (JSON), the query string of a raw-body upload
+//! and the CLI's long flags. They convert into [`RemeshOptions`], never the
 //! reverse; an unknown name, a mistyped value or an option the engine rejects
 //! is a 422 naming the field. The output estimate that guards memory,
 //! area / (√3/4 · L²), is checked here before a job is queued.
@@ -14,7 +14,7 @@ use crate::remesh::{RemeshOptions, Sizing};
 use crate::sizing::{DEFAULT_MIN_EDGE_FACTOR, DEFAULT_RELATIVE_TOLERANCE};
 
 /// Every accepted parameter name.
-pub const PARAM_NAMES: [&str; 16] = [
+pub const PARAM_NAMES: [&str; 17] = [
     "target_edge_length",
     "target_edge_ratio",
     "target_faces",
@@ -31,6 +31,7 @@ pub const PARAM_NAMES: [&str; 16] = [
     "max_edge_length",
     "gradation",
     "output_format",
+    "quality_attributes",
 ];
 
 /// The normalised parameters of a job: defaults filled in and, once the
@@ -71,6 +72,10 @@ pub struct JobParams {
     pub gradation: f64,
     /// Output format (default: the input's).
     pub output_format: Option<Format>,
+    /// Write per-element quality attributes into the result (glTF, GLB or
+    /// PLY output); default false.
+    #[serde(default)]
+    pub quality_attributes: bool,
 }
 
 impl Default for JobParams {
@@ -93,6 +98,7 @@ impl Default for JobParams {
             max_edge_length: None,
             gradation: o.gradation,
             output_format: None,
+            quality_attributes: false,
         }
     }
 }
@@ -125,6 +131,25 @@ impl JobParams {
             )
             .with_field("params")),
         }
+    }
+
+    /// Parameters from the bytes of the `params` part: a JSON object in
+    /// which every name appears once. A JSON parser keeps the last of two
+    /// equal names, so a repeated name (a merge gone wrong, a typo'd
+    /// duplicate) would silently drop a value; it is refused with a 422
+    /// naming it, as a repeated query parameter is.
+    pub fn from_json_bytes(data: &[u8]) -> Result<Self, Problem> {
+        let v: Value = serde_json::from_slice(data).map_err(|e| {
+            Problem::new(
+                ProblemKind::InvalidRequest,
+                format!("the `params` part is not valid JSON: {e}"),
+            )
+            .with_field("params")
+        })?;
+        if let Ok(TopLevelKeys(Some(dup))) = serde_json::from_slice::<TopLevelKeys>(data) {
+            return Err(bad(&dup, "given more than once"));
+        }
+        Self::from_json(&v)
     }
 
     /// Parameters from `name=value` pairs (the query string). Numbers and
@@ -168,6 +193,7 @@ impl JobParams {
                 "min_edge_length" => p.min_edge_length = Some(typed(k, v)?),
                 "max_edge_length" => p.max_edge_length = Some(typed(k, v)?),
                 "gradation" => p.gradation = typed(k, v)?,
+                "quality_attributes" => p.quality_attributes = typed(k, v)?,
                 "output_format" => {
                     let s: String = typed(k, v)?;
                     p.output_format = Some(s.parse::<Format>().map_err(|e| bad(k, e))?);
@@ -201,6 +227,7 @@ impl JobParams {
             min_edge_length: self.min_edge_length,
             max_edge_length: self.max_edge_length,
             gradation: self.gradation,
+            quality_attributes: self.quality_attributes,
             threads: Some(threads.max(1)),
             max_output_faces,
             ..RemeshOptions::default()
@@ -210,6 +237,62 @@ impl JobParams {
             other => bad("params", other),
         })?;
         Ok(o)
+    }
+}
+
+/// The first name that appears twice among the keys of a top-level JSON
+/// object (`None` if none does, or if the value is not an object).
+struct TopLevelKeys(Option<String>);
+
+impl<'de> Deserialize<'de> for TopLevelKeys {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Keys;
+        impl<'de> serde::de::Visitor<'de> for Keys {
+            type Value = TopLevelKeys;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a JSON value")
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(
+                self,
+                mut map: A,
+            ) -> Result<TopLevelKeys, A::Error> {
+                let mut seen = std::collections::HashSet::new();
+                let mut dup = None;
+                while let Some(k) = map.next_key::<String>()? {
+                    map.next_value::<serde::de::IgnoredAny>()?;
+                    if !seen.insert(k.clone()) && dup.is_none() {
+                        dup = Some(k);
+                    }
+                }
+                Ok(TopLevelKeys(dup))
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(
+                self,
+                mut seq: A,
+            ) -> Result<TopLevelKeys, A::Error> {
+                while seq.next_element::<serde::de::IgnoredAny>()?.is_some() {}
+                Ok(TopLevelKeys(None))
+            }
+            fn visit_bool<E>(self, _: bool) -> Result<TopLevelKeys, E> {
+                Ok(TopLevelKeys(None))
+            }
+            fn visit_i64<E>(self, _: i64) -> Result<TopLevelKeys, E> {
+                Ok(TopLevelKeys(None))
+            }
+            fn visit_u64<E>(self, _: u64) -> Result<TopLevelKeys, E> {
+                Ok(TopLevelKeys(None))
+            }
+            fn visit_f64<E>(self, _: f64) -> Result<TopLevelKeys, E> {
+                Ok(TopLevelKeys(None))
+            }
+            fn visit_str<E>(self, _: &str) -> Result<TopLevelKeys, E> {
+                Ok(TopLevelKeys(None))
+            }
+            fn visit_unit<E>(self) -> Result<TopLevelKeys, E> {
+                Ok(TopLevelKeys(None))
+            }
+        }
+        d.deserialize_any(Keys)
     }
 }
 
@@ -240,8 +323,11 @@ pub struct Estimate {
     /// The edge length the estimate uses: the resolved uniform target, or
     /// under adaptive sizing the smallest allowed target (an upper bound).
     pub edge_length: f64,
-    /// area / (√3/4 · L²), saturated.
+    /// area / (√3/4 · L²), saturated: for comparisons, never for messages.
     pub triangles: u64,
+    /// area / (√3/4 · L²) unsaturated (infinite for a zero length): what a
+    /// message quotes, through [`crate::remesh::face_count_text`].
+    pub estimate: f64,
     /// The parameter that sets L, named in the 422 when the estimate is too large.
     pub field: &'static str,
 }
@@ -290,6 +376,7 @@ pub fn estimate_output(g: &InputGeometry, o: &RemeshOptions) -> Estimate {
     Estimate {
         edge_length: l,
         triangles,
+        estimate: if est.is_nan() { f64::INFINITY } else { est },
         field,
     }
 }
@@ -333,6 +420,22 @@ mod tests {
             JobParams::from_query(&dup).unwrap_err().field.as_deref(),
             Some("iterations")
         );
+    }
+
+    #[test]
+    fn a_repeated_name_in_the_params_json_is_refused_naming_it() {
+        let e =
+            JobParams::from_json_bytes(br#"{"iterations": 2, "gradation": 1, "iterations": 3}"#)
+                .unwrap_err();
+        assert_eq!((e.status, e.field.as_deref()), (422, Some("iterations")));
+        assert!(e.detail.contains("more than once"), "{}", e.detail);
+        let p = JobParams::from_json_bytes(br#"{"iterations": 2, "gradation": 1.5}"#).unwrap();
+        assert_eq!(p.iterations, 2);
+        // Not an object: the usual message, not a duplicate.
+        let e = JobParams::from_json_bytes(b"[1, 1]").unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("params"));
+        let e = JobParams::from_json_bytes(b"{").unwrap_err();
+        assert_eq!((e.status, e.field.as_deref()), (400, Some("params")));
     }
 
     #[test]

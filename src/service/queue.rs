@@ -216,7 +216,7 @@ fn execute(svc: &Service, job: &Job, rec: &JobRecord, deadline: Instant) -> Resu
     let out = pipeline::run(&input, &options, &mut observer)?;
     drop(input);
     let format = rec.params.output_format.unwrap_or(rec.input.format);
-    let encoded = pipeline::encode(&out.mesh, format)?;
+    let encoded = pipeline::encode_with(&out.mesh, format, &out.attributes)?;
     let result = ResultInfo {
         format,
         bytes: encoded.len() as u64,

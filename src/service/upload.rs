@@ -185,11 +185,7 @@ async fn read_multipart(req: Request) -> Result<Split, Problem> {
                 if params.is_some() {
                     return Err(bad_request("more than one `params` part").with_field("params"));
                 }
-                let v: serde_json::Value = serde_json::from_slice(&data).map_err(|e| {
-                    bad_request(format!("the `params` part is not valid JSON: {e}"))
-                        .with_field("params")
-                })?;
-                params = Some(JobParams::from_json(&v)?);
+                params = Some(JobParams::from_json_bytes(&data)?);
             }
             "" => return Err(bad_request("a multipart part has no name")),
             uri => {

@@ -18,9 +18,12 @@
 
 use glam::DVec3;
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 
 use super::rng::Pcg64;
+use super::StatsOptions;
 use crate::bvh::SurfaceIndex;
+use crate::trimesh::TriMesh;
 
 /// Points per parallel task; consecutive points chain their answers as hints.
 const CHUNK: usize = 2048;
@@ -173,6 +176,111 @@ pub(crate) fn two_sided(
         || side_distances(mesh, &mesh_samples, reference_index),
         || side_distances(reference, &reference_samples, mesh_index),
     )
+}
+
+/// Two-sided distance between the mesh and the reference surface. Each side
+/// is sampled with `samples_per_side` area-uniform points plus its vertices
+/// and each sample's exact distance to the other surface is taken.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DistanceStats {
+    /// Symmetric Hausdorff distance: the larger of the two one-sided maxima.
+    pub hausdorff: f64,
+    /// Mean distance, pooled over the samples of both sides.
+    pub mean: f64,
+    /// Root mean square distance, pooled over the samples of both sides.
+    pub rms: f64,
+    /// `hausdorff` divided by the reference's bounding-box diagonal.
+    pub hausdorff_relative: f64,
+    /// `mean` divided by the reference's bounding-box diagonal.
+    pub mean_relative: f64,
+    /// `rms` divided by the reference's bounding-box diagonal.
+    pub rms_relative: f64,
+    /// Largest distance from a sample of the mesh to the reference.
+    pub to_reference_max: f64,
+    /// Largest distance from a sample of the reference to the mesh.
+    pub from_reference_max: f64,
+    /// The reference's bounding-box diagonal.
+    pub reference_diagonal: f64,
+    /// Area-uniform samples taken on each side (vertices come on top).
+    pub samples_per_side: u64,
+    /// Seed of the sample stream: with the same seed and sample count,
+    /// `quality.py` draws the same points and reports the same distances.
+    pub seed: u64,
+}
+
+/// The `distance` section of `mesh` (faces `tris`, vertices `used`)
+/// against `reference`, or `None` when either has no valid face.
+pub(super) fn distance_stats(
+    mesh: &TriMesh,
+    tris: &[[u32; 3]],
+    used: &[bool],
+    reference: &TriMesh,
+    opts: &StatsOptions,
+) -> Option<DistanceStats> {
+    let ref_nv = reference.positions.len();
+    let ref_tris: Vec<[u32; 3]> = reference
+        .triangles
+        .iter()
+        .copied()
+        .filter(|t| t.iter().all(|&v| (v as usize) < ref_nv))
+        .collect();
+    if tris.is_empty() || ref_tris.is_empty() {
+        return None;
+    }
+    let mut ref_used = vec![false; ref_nv];
+    for t in &ref_tris {
+        for &v in t {
+            ref_used[v as usize] = true;
+        }
+    }
+    let built;
+    let (mesh_index, ref_index) = match opts.reference_index {
+        Some(r) => (SurfaceIndex::new(&mesh.positions, tris), r),
+        None => {
+            let (m, r) = rayon::join(
+                || SurfaceIndex::new(&mesh.positions, tris),
+                || SurfaceIndex::new(&reference.positions, &ref_tris),
+            );
+            built = r;
+            (m, &built)
+        }
+    };
+    let n = opts.samples_per_side;
+    let (to_ref, from_ref) = two_sided(
+        &Side {
+            positions: &mesh.positions,
+            triangles: tris,
+            used,
+        },
+        &mesh_index,
+        &Side {
+            positions: &reference.positions,
+            triangles: &ref_tris,
+            used: &ref_used,
+        },
+        ref_index,
+        n,
+        opts.sample_seed,
+    );
+    let count = (to_ref.count + from_ref.count).max(1) as f64;
+    let hausdorff = to_ref.max.max(from_ref.max);
+    let mean = (to_ref.sum + from_ref.sum) / count;
+    let rms = ((to_ref.sum_sq + from_ref.sum_sq) / count).sqrt();
+    let diag = reference.bbox_diagonal();
+    let rel = |x: f64| if diag > 0.0 { x / diag } else { 0.0 };
+    Some(DistanceStats {
+        hausdorff,
+        mean,
+        rms,
+        hausdorff_relative: rel(hausdorff),
+        mean_relative: rel(mean),
+        rms_relative: rel(rms),
+        to_reference_max: to_ref.max,
+        from_reference_max: from_ref.max,
+        reference_diagonal: diag,
+        samples_per_side: n as u64,
+        seed: opts.sample_seed,
+    })
 }
 
 #[cfg(test)]

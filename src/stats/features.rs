@@ -12,12 +12,20 @@ use serde::{Deserialize, Serialize};
 use crate::features::{self, detect_features, EdgeFlags, FeatureOptions, FeatureSet};
 use crate::trimesh::TriMesh;
 
-/// A reference corner is kept when a vertex lies within this fraction of the
-/// reference's bounding-box diagonal of it.
-pub const CORNER_TOLERANCE: f64 = 1e-9;
+/// A reference corner is kept when a vertex of the mesh lies within this
+/// many target lengths L of it.
+///
+/// Both tolerances are relative to L so that they hold whatever format the
+/// mesh was stored in: a format with f32 coordinates (glTF, STL) moves a
+/// vertex by up to 2^-24 of its largest coordinate (about 6e-8 of the
+/// bounding-box extent for a mesh around the origin), far below 1e-3·L for
+/// any L above 1e-4 of the extent, while a corner the remesher did not keep
+/// lies a sizeable fraction of L away. So a result gives the same counts
+/// written as OBJ, PLY, GLB or STL.
+pub const CORNER_TOLERANCE: f64 = 1e-3;
 
 /// A point lies on a feature line when it is within this many target
-/// lengths of one of the line's edges.
+/// lengths of one of the line's edges (see [`CORNER_TOLERANCE`]).
 pub const ON_LINE_TOLERANCE: f64 = 1e-3;
 
 /// The features of one mesh and, against a reference, their fidelity.
@@ -54,9 +62,11 @@ pub struct FeatureFidelity {
     pub sharp_distance_mean_over_l: Option<f64>,
     /// Corners of the reference.
     pub reference_corners: u64,
-    /// Reference corners with a vertex of the mesh within
-    /// [`CORNER_TOLERANCE`] of the reference's diagonal.
+    /// Reference corners with a vertex of the mesh within `corner_tolerance`.
     pub corners_kept: u64,
+    /// The distance within which a vertex keeps a corner:
+    /// [`CORNER_TOLERANCE`]·L, absolute.
+    pub corner_tolerance: f64,
     /// The distance within which a point counts as lying on a feature line:
     /// [`ON_LINE_TOLERANCE`]·L, absolute.
     pub on_line_tolerance: f64,
@@ -144,7 +154,7 @@ fn fidelity(
         .filter(|&&d| d.is_nan() || d > tol)
         .count() as u64;
 
-    let corner_tol = CORNER_TOLERANCE * reference.bbox_diagonal();
+    let corner_tol = CORNER_TOLERANCE * l;
     let grid = VertexGrid::new(pos, corner_tol);
     let corners_kept = rfs
         .corners()
@@ -159,6 +169,7 @@ fn fidelity(
         sharp_distance_mean_over_l: sharp.map(|d| d.mean / l),
         reference_corners: rfs.corners().len() as u64,
         corners_kept,
+        corner_tolerance: corner_tol,
         on_line_tolerance: tol,
         edges_on_reference_lines: on_line,
         edges_on_reference_lines_fraction: (n > 0).then(|| on_line as f64 / n as f64),

@@ -9,7 +9,7 @@ use isoremesh::io::{self, Format, ReadOptions, WriteOptions};
 use isoremesh::mesh::Mesh;
 use isoremesh::pipeline;
 use isoremesh::remesh::{remesh, NoObserver, RemeshOptions};
-use isoremesh::stats::{self, StatsOptions};
+use isoremesh::stats::{self, polyline, StatsOptions};
 use isoremesh::trimesh::{Label, Material};
 use isoremesh::{shapes, TriMesh};
 use proptest::prelude::*;
@@ -78,7 +78,7 @@ fn a_disk_keeps_its_rim_resampled_in_the_band() {
         let len = (pb - pa).length();
         assert!((0.8 * l..=4.0 / 3.0 * l).contains(&len), "rim edge {len}");
     }
-    let d = features::boundary_distance(&input, &out, l / 4.0).unwrap();
+    let d = polyline::boundary_distance(&input, &out, l / 4.0).unwrap();
     assert!(d.max <= 0.01 * l, "rim distance {} L", d.max / l);
 }
 
@@ -206,7 +206,7 @@ proptest! {
                 .fold(f64::INFINITY, f64::min);
             prop_assert!(nearest <= tol, "corner {c} missed by {nearest}");
         }
-        let d = features::sharp_edge_distance(&input, &out, 45.0, l / 4.0).unwrap();
+        let d = polyline::sharp_edge_distance(&input, &out, 45.0, l / 4.0).unwrap();
         prop_assert!(d.max <= 1e-9 * l.max(1.0), "box edges off by {} L", d.max / l);
     }
 }

@@ -4,9 +4,9 @@
 mod data_support;
 
 use isoremesh::features::{
-    detect_features, mesh_edges, polyline_distance, sharp_edge_distance, sharp_edges, EdgeFlags,
-    FeatureOptions, VertexKind,
+    detect_features, mesh_edges, sharp_edges, EdgeFlags, FeatureOptions, VertexKind,
 };
+use isoremesh::stats::polyline::{polyline_distance, sharp_edge_distance};
 use isoremesh::TriMesh;
 use std::collections::HashMap;
 

@@ -2,11 +2,9 @@
 //! nearest edge of another mesh, against brute force and known geometry.
 
 use glam::DVec3;
-use isoremesh::features::{
-    boundary_distance, boundary_edges, mesh_edges, polyline_distance, sharp_edge_distance,
-    sharp_edges,
-};
+use isoremesh::features::{boundary_edges, mesh_edges, sharp_edges};
 use isoremesh::shapes;
+use isoremesh::stats::polyline::{boundary_distance, polyline_distance, sharp_edge_distance};
 
 fn seg_dist(p: DVec3, a: DVec3, b: DVec3) -> f64 {
     let d = b - a;

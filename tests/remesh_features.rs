@@ -5,9 +5,10 @@
 mod data_support;
 
 use glam::DVec3;
-use isoremesh::features::{self, detect_features, FeatureOptions};
+use isoremesh::features::{detect_features, FeatureOptions};
 use isoremesh::mesh::Mesh;
 use isoremesh::remesh::{remesh, NoObserver, RemeshOptions};
+use isoremesh::stats::polyline;
 use isoremesh::{shapes, TriMesh};
 
 fn run(input: &Mesh, l: f64) -> TriMesh {
@@ -44,7 +45,7 @@ fn cube_corners_and_edges_are_kept_exactly() {
     let l = 0.0075 * tin.bbox_diagonal() * 4.0;
     let out = run(&input, l);
     assert_corners_kept(&tin, &out);
-    let d = features::sharp_edge_distance(&tin, &out, 45.0, l / 4.0).unwrap();
+    let d = polyline::sharp_edge_distance(&tin, &out, 45.0, l / 4.0).unwrap();
     assert!(d.max <= 0.01 * l, "feature distance {} L", d.max / l);
 }
 
@@ -55,7 +56,7 @@ fn fandisk_corners_stay_and_creases_stay_close() {
     let l = 0.0075 * tin.bbox_diagonal();
     let out = run(&input, l);
     assert_corners_kept(&tin, &out);
-    let d = features::sharp_edge_distance(&tin, &out, 45.0, l / 4.0).unwrap();
+    let d = polyline::sharp_edge_distance(&tin, &out, 45.0, l / 4.0).unwrap();
     // The input's arcs turn by up to 22.5° at vertices 1.3–2.1 L apart;
     // without a vertex on each turn the output's chords cut it by 0.034 L.
     assert!(d.max <= 0.01 * l, "feature distance {} L", d.max / l);
@@ -106,7 +107,7 @@ fn boundaries_are_resampled_on_the_input_boundary() {
         boundary_lengths.len(),
         "boundary edges outside the band"
     );
-    let d = features::boundary_distance(&tin, &tout, l / 4.0).unwrap();
+    let d = polyline::boundary_distance(&tin, &tout, l / 4.0).unwrap();
     assert!(d.max <= 0.01 * l, "boundary distance {} L", d.max / l);
 }
 
@@ -165,7 +166,7 @@ fn line_vertices_are_fixed_only_where_a_chord_would_cut_the_turn() {
     // stay (they are 1.09 L apart, more than the collapse length).
     let (tin, out) = run_cylinder(48);
     assert_eq!(out.report.fixed_turns, 96);
-    let d = features::boundary_distance(&tin, &out.mesh.to_trimesh(), l / 4.0).unwrap();
+    let d = polyline::boundary_distance(&tin, &out.mesh.to_trimesh(), l / 4.0).unwrap();
     assert!(d.max <= 1e-9, "boundary distance {} L", d.max / l);
     // A 480-gon turns by 0.75° every 0.11 L: a chord across one vertex cuts
     // the turn by 0.0007 L, so the rim is free to be resampled.

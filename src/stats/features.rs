@@ -9,7 +9,8 @@ use std::collections::HashMap;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
-use crate::features::{self, detect_features, EdgeFlags, FeatureOptions, FeatureSet};
+use super::polyline;
+use crate::features::{detect_features, EdgeFlags, FeatureOptions, FeatureSet};
 use crate::trimesh::TriMesh;
 
 /// A reference corner is kept when a vertex of the mesh lies within this
@@ -123,7 +124,7 @@ fn fidelity(
 ) -> FeatureFidelity {
     let rfs = detect_features(reference, opts);
     let step = l / 4.0;
-    let sharp = features::sharp_edge_distance(reference, mesh, opts.feature_angle_deg, step);
+    let sharp = polyline::sharp_edge_distance(reference, mesh, opts.feature_angle_deg, step);
     let tol = ON_LINE_TOLERANCE * l;
 
     // Feature edges of the mesh: end points and midpoints against the
@@ -137,7 +138,7 @@ fn fidelity(
             [pa, pb, 0.5 * (pa + pb)]
         })
         .collect();
-    let offsets = features::point_edge_distances(&queries, &reference.positions, rfs.edges());
+    let offsets = polyline::point_edge_distances(&queries, &reference.positions, rfs.edges());
     let on_line = offsets
         .chunks(3)
         .filter(|d| d.iter().all(|&x| x <= tol))
@@ -148,8 +149,8 @@ fn fidelity(
         .fold(None, |m: Option<f64>, d| Some(m.map_or(d, |m| m.max(d))));
 
     // The reference's feature lines, sampled, against the mesh's feature edges.
-    let samples = features::edge_samples(&reference.positions, rfs.edges(), step);
-    let uncovered = features::point_edge_distances(&samples, pos, fs.edges())
+    let samples = polyline::edge_samples(&reference.positions, rfs.edges(), step);
+    let uncovered = polyline::point_edge_distances(&samples, pos, fs.edges())
         .iter()
         .filter(|&&d| d.is_nan() || d > tol)
         .count() as u64;

@@ -25,6 +25,7 @@ mod edges;
 mod elements;
 mod features;
 mod histogram;
+pub mod polyline;
 mod rng;
 mod shape;
 mod summary;

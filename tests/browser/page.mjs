@@ -165,6 +165,19 @@ async function flow() {
     await page.waitForFunction(() => /^cube\.obj \([\d,]+ bytes\) — the mesh$/.test(document.getElementById('file-list').textContent));
     assert.ok(await page.isEnabled('#submit'), 'a dropped mesh does not enable the submit button');
 
+    // Every other input format previews in the "before" view.
+    for (const file of ['spot_binary.stl', 'spot_binary_le.ply', 'fertility.off', 'cube_quads_be.ply']) {
+      await page.evaluate(() => {
+        const shown = window.isoremesh.viewer.objects.before;
+        if (shown) shown.seen = true;
+      });
+      await page.setInputFiles('#files', [path.join(data, file)]);
+      await page.waitForFunction(() => window.isoremesh.viewer.objects.before?.seen === undefined);
+      assert.equal(await page.textContent('#view-info'), '', `${file}: ${await page.textContent('#view-info')}`);
+      const preview = await shot(page, `preview-${file.replace('.', '-')}.png`);
+      assert.ok(preview.left.drawn > 0.03, `${file} does not preview: ${JSON.stringify(preview.left)}`);
+    }
+
     // spot.obj: before and after side by side.
     let job = await remesh(page, [path.join(data, 'spot.obj')]);
     assert.equal(job.status, 'succeeded', JSON.stringify(job.error));

@@ -22,6 +22,7 @@
 //! | [`problem`] | RFC 9457 problem details |
 //! | [`metrics`] | Prometheus counters and histogram |
 //! | [`telemetry`] | tracing setup, request ids, panic hook |
+//! | [`web`] | the web page at `/` and its embedded files |
 
 pub mod config;
 pub mod dto;
@@ -35,6 +36,7 @@ pub mod routes;
 pub mod store;
 pub mod telemetry;
 pub mod upload;
+pub mod web;
 
 use std::future::Future;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};

@@ -1,6 +1,7 @@
 //! The route table and [`app`]. The router is built from [`routes`], the
 //! same table the contract test compares with `openapi.yaml`, so the two
-//! cannot drift apart silently. Layers: a request id (`x-request-id`, taken
+//! cannot drift apart silently. The web page's routes ([`super::web`]) are
+//! merged in beside them; they are outside the API. Layers: a request id (`x-request-id`, taken
 //! from the client or generated) set first, a trace span carrying it around
 //! every request, the id echoed in the response, and the body limit that the
 //! multipart parser honours.
@@ -58,7 +59,8 @@ pub fn app(state: AppState) -> Router {
     let request_id = HeaderName::from_static("x-request-id");
     let router = routes()
         .into_iter()
-        .fold(Router::new(), |router, r| router.route(r.path, r.handler));
+        .fold(Router::new(), |router, r| router.route(r.path, r.handler))
+        .merge(super::web::router());
     router
         .fallback(handlers::not_found)
         .method_not_allowed_fallback(handlers::method_not_allowed)

@@ -105,7 +105,7 @@ export function plots(stats) {
   }));
   if (edge.length) {
     const len = stats.output.edge_length;
-    const band = [len.band_min_over_l ?? len.band?.[0] ?? BAND[0], len.band_max_over_l ?? len.band?.[1] ?? BAND[1]];
+    const band = [len.band?.lower ?? BAND[0], len.band?.upper ?? BAND[1]];
     out.push(
       barChart({
         title: `Edge length / L (L = ${fmt(len.target)}); in band: input ${pct(stats.input.edge_length?.within_band)}, output ${pct(len.within_band)}`,

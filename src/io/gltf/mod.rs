@@ -1,0 +1,367 @@
+//! glTF 2.0 (Khronos specification 2.0.1): `.gltf` JSON with `data:` base64
+//! buffers or caller-provided external buffers, and the `.glb` container.
+//!
+//! Reading uses `gltf::json` only to deserialize the document; the GLB
+//! header and chunks, buffer views, accessors, strides and indices are
+//! validated here with checked arithmetic and read by this module, because
+//! the `gltf` crate's reader panics on hostile counts and strides. Every
+//! triangle primitive of every mesh reachable from the default scene (else
+//! scene 0, else all root nodes, else every mesh when there are no nodes)
+//! is read in world space: node matrices / TRS are composed down the
+//! hierarchy (each node is visited once, so cycles terminate), normals use
+//! the inverse-transpose, and mirroring transforms flip the winding.
+//! Strips and fans become triangle lists; points and lines are counted in
+//! [`Imported::ignored_primitives`]. Morph targets and skins are ignored
+//! (the rest pose is read).
+//!
+//! Labels: one label per material index, so primitives that share a
+//! material share a label; primitives without a material share one label
+//! without material. Primitives of one node instance that share their
+//! POSITION/NORMAL accessors share vertices, which is what [`write`] emits
+//! (one vertex array, one index accessor per label), so a round trip keeps
+//! the topology.
+//!
+//! Rooms: `access.rs` validates and reads the binary side (GLB chunks,
+//! buffers, views, accessors); this file walks the scene; `write.rs` writes
+//! a mesh back as glTF or GLB.
+
+use std::collections::HashMap;
+
+use ::gltf::json;
+use glam::{DMat3, DMat4, DQuat, DVec3};
+use json::mesh::{Mode, Semantic};
+use json::validation::Checked;
+
+use super::{check_triangle_budget, Format, Imported, IoError, ReadOptions};
+use crate::{Label, Material, TriMesh};
+
+mod access;
+mod write;
+
+use access::*;
+pub(super) use write::write;
+
+fn to_material(m: &json::Material) -> Material {
+    let pbr = &m.pbr_metallic_roughness;
+    let strength = m
+        .extensions
+        .as_ref()
+        .and_then(|e| e.emissive_strength.as_ref())
+        .map_or(1.0, |s| s.emissive_strength.0);
+    Material {
+        name: m.name.clone(),
+        base_color_factor: pbr.base_color_factor.0,
+        metallic_factor: pbr.metallic_factor.0,
+        roughness_factor: pbr.roughness_factor.0,
+        emissive_factor: m.emissive_factor.0.map(|c| c * strength),
+        double_sided: m.double_sided,
+    }
+}
+
+fn local_matrix(node: &json::Node) -> DMat4 {
+    if let Some(m) = node.matrix {
+        return DMat4::from_cols_array(&m.map(f64::from));
+    }
+    let t = node.translation.map_or(DVec3::ZERO, |t| {
+        DVec3::new(f64::from(t[0]), f64::from(t[1]), f64::from(t[2]))
+    });
+    let s = node.scale.map_or(DVec3::ONE, |s| {
+        DVec3::new(f64::from(s[0]), f64::from(s[1]), f64::from(s[2]))
+    });
+    let r = node
+        .rotation
+        .map(|q| {
+            let [x, y, z, w] = q.0.map(f64::from);
+            DQuat::from_xyzw(x, y, z, w)
+        })
+        .filter(|q| q.length() > 1e-12 && q.is_finite())
+        .map_or(DQuat::IDENTITY, DQuat::normalize);
+    DMat4::from_scale_rotation_translation(s, r, t)
+}
+
+/// The meshes to read with their world matrices, in the document order of
+/// their nodes (the order trimesh, and so the benchmark, concatenates them),
+/// whatever the hierarchy's shape.
+fn instances(root: &json::Root, format: Format) -> Result<Vec<(usize, DMat4)>, IoError> {
+    let nodes = &root.nodes;
+    let roots: Vec<usize> = if let Some(s) = root
+        .scene
+        .map(|s| s.value())
+        .or_else(|| (!root.scenes.is_empty()).then_some(0))
+    {
+        let scene = root.scenes.get(s).ok_or_else(|| {
+            IoError::parse(format, format!("the default scene {s} does not exist"))
+        })?;
+        scene.nodes.iter().map(|n| n.value()).collect()
+    } else if !nodes.is_empty() {
+        let mut is_child = vec![false; nodes.len()];
+        for c in nodes.iter().flat_map(|n| n.children.iter().flatten()) {
+            if let Some(flag) = is_child.get_mut(c.value()) {
+                *flag = true;
+            }
+        }
+        (0..nodes.len()).filter(|&i| !is_child[i]).collect()
+    } else {
+        return Ok((0..root.meshes.len())
+            .map(|m| (m, DMat4::IDENTITY))
+            .collect());
+    };
+    let mut visited = vec![false; nodes.len()];
+    let mut stack: Vec<(usize, DMat4)> =
+        roots.iter().rev().map(|&n| (n, DMat4::IDENTITY)).collect();
+    let mut out = Vec::new();
+    while let Some((n, parent)) = stack.pop() {
+        let Some(node) = nodes.get(n) else {
+            return Err(IoError::parse(format, format!("node {n} does not exist")));
+        };
+        // The hierarchy must be a forest; visiting each node once makes
+        // cycles and shared children terminate.
+        if std::mem::replace(&mut visited[n], true) {
+            continue;
+        }
+        let world = parent * local_matrix(node);
+        if let Some(m) = node.mesh {
+            if m.value() >= root.meshes.len() {
+                return Err(IoError::parse(
+                    format,
+                    format!("node {n} uses mesh {}, which does not exist", m.value()),
+                ));
+            }
+            out.push((n, m.value(), world));
+        }
+        for c in node.children.iter().flatten().rev() {
+            stack.push((c.value(), world));
+        }
+    }
+    // Each node is visited once, so node indices are unique keys.
+    out.sort_unstable_by_key(|&(n, _, _)| n);
+    Ok(out.into_iter().map(|(_, m, w)| (m, w)).collect())
+}
+
+pub(super) fn read(bytes: &[u8], format: Format, opts: &ReadOptions) -> Result<Imported, IoError> {
+    let is_glb = bytes.starts_with(GLB_MAGIC) || format == Format::Glb;
+    let format = if is_glb { Format::Glb } else { Format::Gltf };
+    let (json_bytes, bin) = if is_glb {
+        split_glb(bytes)?
+    } else {
+        // A byte order mark is tolerated in .gltf text (not in GLB).
+        (bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes), None)
+    };
+    let root: json::Root = serde_json::from_slice(json_bytes)
+        .map_err(|e| IoError::parse(format, format!("JSON: {e}")))?;
+    let major = root.asset.version.split('.').next().unwrap_or("");
+    if major != "2" {
+        return Err(IoError::unsupported(
+            format,
+            format!("glTF version {:?} (only 2.x is read)", root.asset.version),
+        ));
+    }
+    if let Some(ext) = root
+        .extensions_required
+        .iter()
+        .find(|e| GEOMETRY_EXTENSIONS.contains(&e.as_str()))
+    {
+        return Err(IoError::unsupported(
+            format,
+            format!("the file requires {ext}, which isoremesh cannot decode"),
+        ));
+    }
+    let instances = instances(&root, format)?;
+    let max_vertices = opts
+        .max_triangles
+        .saturating_mul(3)
+        .min(u64::from(u32::MAX));
+    let mut reader = Reader {
+        format,
+        root: &root,
+        buffers: Buffers::new(format, &root, bin, opts),
+        max_elements: max_vertices,
+    };
+
+    let mut mesh = TriMesh::default();
+    let mut ignored = 0u64;
+    let mut all_normals = true;
+    let mut labels: HashMap<Option<usize>, u32> = HashMap::new();
+    let mut shared: HashMap<(usize, usize, Option<usize>), (u32, u32)> = HashMap::new();
+    let mut scratch: Vec<f64> = Vec::new();
+    for (instance, &(m, world)) in instances.iter().enumerate() {
+        let det = world.determinant();
+        let normal_matrix = if det.abs() > 1e-300 {
+            DMat3::from_mat4(world).inverse().transpose()
+        } else {
+            DMat3::from_mat4(world)
+        };
+        for prim in &root.meshes[m].primitives {
+            let mode = match prim.mode {
+                Checked::Valid(mode) => mode,
+                Checked::Invalid => {
+                    return Err(IoError::parse(
+                        format,
+                        format!("a primitive of mesh {m} has an invalid mode"),
+                    ))
+                }
+            };
+            if !matches!(
+                mode,
+                Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+            ) {
+                ignored += 1;
+                continue;
+            }
+            let Some(pos_acc) = prim
+                .attributes
+                .get(&Checked::Valid(Semantic::Positions))
+                .map(|i| i.value())
+            else {
+                // The spec lets clients skip primitives without positions.
+                ignored += 1;
+                continue;
+            };
+            let nrm_acc = prim
+                .attributes
+                .get(&Checked::Valid(Semantic::Normals))
+                .map(|i| i.value());
+            let idx_acc = prim.indices.map(|i| i.value());
+
+            // Bound the output before reading anything.
+            let corner_count = match idx_acc {
+                Some(i) => root.accessors.get(i).map_or(0, |a| a.count.0),
+                None => root.accessors.get(pos_acc).map_or(0, |a| a.count.0),
+            };
+            let new_triangles = match mode {
+                Mode::Triangles => corner_count / 3,
+                _ => corner_count.saturating_sub(2),
+            };
+            check_triangle_budget(mesh.triangles.len() as u64 + new_triangles, opts)?;
+
+            let key = (instance, pos_acc, nrm_acc);
+            let (base, vcount) = match shared.get(&key) {
+                Some(&b) => b,
+                None => {
+                    let base = super::vertex_index(mesh.positions.len())?;
+                    scratch.clear();
+                    let n = reader.read(pos_acc, Role::Vec3, &mut scratch)?;
+                    if mesh.positions.len() as u64 + n as u64 > max_vertices {
+                        return Err(IoError::TooLarge {
+                            message: format!(
+                                "more than {max_vertices} vertices (3 per allowed triangle)"
+                            ),
+                        });
+                    }
+                    mesh.positions.extend(
+                        scratch
+                            .chunks_exact(3)
+                            .map(|c| world.transform_point3(DVec3::new(c[0], c[1], c[2]))),
+                    );
+                    match nrm_acc {
+                        Some(na) => {
+                            scratch.clear();
+                            let nn = reader.read(na, Role::Vec3, &mut scratch)?;
+                            if nn != n {
+                                return Err(IoError::parse(
+                                    format,
+                                    format!(
+                                        "NORMAL accessor {na} has {nn} elements but POSITION accessor {pos_acc} has {n}"
+                                    ),
+                                ));
+                            }
+                            mesh.normals.resize(base as usize, DVec3::ZERO);
+                            mesh.normals.extend(scratch.chunks_exact(3).map(|c| {
+                                (normal_matrix * DVec3::new(c[0], c[1], c[2])).normalize_or_zero()
+                            }));
+                        }
+                        None => all_normals = false,
+                    }
+                    let entry = (base, super::vertex_index(n)?);
+                    shared.insert(key, entry);
+                    entry
+                }
+            };
+
+            scratch.clear();
+            let corners: Vec<u32> = match idx_acc {
+                Some(i) => {
+                    reader.read(i, Role::Index, &mut scratch)?;
+                    // Unsigned integers of at most 32 bits, exact in f64.
+                    scratch.iter().map(|&x| x as u32).collect()
+                }
+                None => (0..vcount).collect(),
+            };
+            let first_face = mesh.triangles.len();
+            for (c, &i) in corners.iter().enumerate() {
+                if i >= vcount {
+                    let face = match mode {
+                        Mode::Triangles => c / 3,
+                        _ => c.saturating_sub(2),
+                    };
+                    return Err(IoError::IndexOutOfRange {
+                        face: (first_face + face) as u64,
+                        index: i64::from(i),
+                        vertex_count: u64::from(vcount),
+                    });
+                }
+            }
+            let flip = det < 0.0;
+            let mut push = |t: [u32; 3]| {
+                let t = t.map(|i| i + base);
+                mesh.triangles
+                    .push(if flip { [t[0], t[2], t[1]] } else { t });
+            };
+            match mode {
+                Mode::Triangles => corners
+                    .chunks_exact(3)
+                    .for_each(|t| push([t[0], t[1], t[2]])),
+                Mode::TriangleStrip => {
+                    for (k, w) in corners.windows(3).enumerate() {
+                        // Zero-area joins between strips are not faces.
+                        if w[0] != w[1] && w[1] != w[2] && w[0] != w[2] {
+                            push(if k % 2 == 0 {
+                                [w[0], w[1], w[2]]
+                            } else {
+                                [w[1], w[0], w[2]]
+                            });
+                        }
+                    }
+                }
+                _ => {
+                    for w in corners.windows(2).skip(1) {
+                        let t = [w[0], w[1], corners[0]];
+                        if t[0] != t[1] && t[1] != t[2] && t[0] != t[2] {
+                            push(t);
+                        }
+                    }
+                }
+            }
+
+            let mat = prim.material.map(|i| i.value());
+            let next = mesh.labels.len() as u32;
+            let label = *labels.entry(mat).or_insert(next);
+            if label == next {
+                let material = match mat {
+                    Some(i) => Some(to_material(root.materials.get(i).ok_or_else(|| {
+                        IoError::parse(format, format!("material {i} does not exist"))
+                    })?)),
+                    None => None,
+                };
+                mesh.labels.push(Label {
+                    name: material.as_ref().and_then(|m| m.name.clone()),
+                    material,
+                });
+            }
+            mesh.face_labels.resize(mesh.triangles.len(), label);
+        }
+    }
+    if all_normals {
+        mesh.normals.resize(mesh.positions.len(), DVec3::ZERO);
+    } else {
+        mesh.normals.clear();
+    }
+    if mesh.labels.len() <= 1 && mesh.labels.iter().all(|l| l.material.is_none()) {
+        mesh.labels.clear();
+        mesh.face_labels.clear();
+    }
+    Ok(Imported {
+        mesh,
+        ignored_primitives: ignored,
+    })
+}

@@ -78,6 +78,13 @@ use crate::curvature::{
 };
 use crate::trimesh::TriMesh;
 
+/// Lower bound of the Botsch & Kobbelt length band, in units of the local
+/// target: the remesher collapses shorter edges, and the statistics report
+/// the share of edges inside the band.
+pub const COLLAPSE_FACTOR: f64 = 4.0 / 5.0;
+/// Upper bound of the length band: the remesher splits longer edges.
+pub const SPLIT_FACTOR: f64 = 4.0 / 3.0;
+
 /// Default tolerance as a fraction of the bounding-box diagonal: 0.1 %, below
 /// what is visible at any viewing distance that shows the whole model, and
 /// coarse enough that smooth regions get edges of a few percent of the

@@ -24,7 +24,8 @@
 //! junctions, one is kept (see `twin_creases_kept`), and a flat face ringed
 //! by creases loses its longest (see `flat_creases_kept`).
 //!
-//! The module's rooms: `detect.rs` classifies edges and walks the feature
+//! The module's rooms: `anchors.rs` holds the remesher's policy of which
+//! vertices stay fixed, `detect.rs` classifies edges and walks the feature
 //! graph into lines, `filter.rs` drops the creases too small to keep,
 //! `lines.rs` answers closest-point queries on one line (its segment tree).
 //! How well an output keeps the input's features is measured in
@@ -34,6 +35,7 @@ use glam::DVec3;
 
 use crate::trimesh::TriMesh;
 
+pub(crate) mod anchors;
 mod detect;
 mod filter;
 pub(crate) mod lines;

@@ -6,9 +6,9 @@
 use serde::{Deserialize, Serialize};
 
 /// Lower bound of the Botsch–Kobbelt band, in units of the reference length.
-pub const BAND_LOWER: f64 = 0.8;
+pub const BAND_LOWER: f64 = crate::sizing::COLLAPSE_FACTOR;
 /// Upper bound of the Botsch–Kobbelt band, in units of the reference length.
-pub const BAND_UPPER: f64 = 4.0 / 3.0;
+pub const BAND_UPPER: f64 = crate::sizing::SPLIT_FACTOR;
 
 /// What one unit of a histogram's axis (and of a band's bounds) stands for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]

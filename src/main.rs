@@ -185,33 +185,13 @@ fn external_buffers(
             && !uri.contains("://")
             && !uri.starts_with('/')
             && !uri.split(['/', '\\']).any(|c| c == "..");
-        if plain {
-            let decoded = percent_decode(uri);
+        // A malformed escape is left for the reader to report as missing.
+        if let Some(decoded) = plain.then(|| isoremesh::io::percent_decode(uri)).flatten() {
             let file = dir.join(&decoded);
             out.insert(uri.to_string(), read_file(&file)?);
         }
     }
     Ok(out)
-}
-
-/// Decodes `%XX` escapes in a URI path.
-fn percent_decode(s: &str) -> String {
-    let b = s.as_bytes();
-    let mut out = Vec::with_capacity(b.len());
-    let mut i = 0;
-    while i < b.len() {
-        if b[i] == b'%' && i + 2 < b.len() {
-            let hex = |c: u8| (c as char).to_digit(16);
-            if let (Some(h), Some(l)) = (hex(b[i + 1]), hex(b[i + 2])) {
-                out.push((h * 16 + l) as u8);
-                i += 3;
-                continue;
-            }
-        }
-        out.push(b[i]);
-        i += 1;
-    }
-    String::from_utf8_lossy(&out).into_owned()
 }
 
 fn stats_command(a: StatsArgs) -> Result<(), Failure> {

@@ -31,6 +31,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 pub use attributes::{Attribute, Attributes};
 pub use error::IoError;
 pub use format::Format;
+pub use gltf::percent_decode;
 pub use normals::with_split_normals;
 
 use crate::TriMesh;

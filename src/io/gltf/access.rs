@@ -95,8 +95,9 @@ pub(crate) fn split_glb(bytes: &[u8]) -> Result<(&[u8], Option<&[u8]>), IoError>
     Ok((json, bin))
 }
 
-/// Decodes `%XX` escapes of a relative URI; `None` when malformed.
-pub(crate) fn percent_decode(uri: &str) -> Option<String> {
+/// Decodes the `%XX` escapes of a relative URI (a glTF buffer or image
+/// name); `None` when an escape is malformed or the result is not UTF-8.
+pub fn percent_decode(uri: &str) -> Option<String> {
     let b = uri.as_bytes();
     let mut out = Vec::with_capacity(b.len());
     let mut i = 0;

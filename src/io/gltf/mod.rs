@@ -38,6 +38,7 @@ use crate::{Label, Material, TriMesh};
 mod access;
 mod write;
 
+pub use access::percent_decode;
 use access::*;
 pub(super) use write::write;
 

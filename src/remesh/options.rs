@@ -98,7 +98,8 @@ pub struct RemeshOptions {
     /// Adaptive sizing: absolute approximation tolerance ε.
     pub tolerance: Option<f64>,
     /// Adaptive sizing: tolerance as a fraction of the bounding-box diagonal
-    /// (default 0.001 when neither tolerance is given).
+    /// (default [`crate::sizing::DEFAULT_RELATIVE_TOLERANCE`] when neither
+    /// tolerance is given).
     pub tolerance_ratio: Option<f64>,
     /// Adaptive sizing: smallest allowed target length.
     pub min_edge_length: Option<f64>,

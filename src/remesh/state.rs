@@ -477,9 +477,12 @@ fn face_neighbors(tm: &TriMesh, start: &[u32], faces: &[u32]) -> Vec<[u32; 3]> {
 /// The sizing options of adaptive sizing: the tolerance's defaults with the
 /// caller's bounds and gradation.
 fn adaptive_options(options: &RemeshOptions, diag: f64) -> SizingOptions {
-    let eps = options
-        .tolerance
-        .unwrap_or_else(|| options.tolerance_ratio.unwrap_or(0.001) * diag);
+    let eps = options.tolerance.unwrap_or_else(|| {
+        options
+            .tolerance_ratio
+            .unwrap_or(crate::sizing::DEFAULT_RELATIVE_TOLERANCE)
+            * diag
+    });
     let mut so = SizingOptions::for_tolerance(eps, diag);
     if let Some(a) = options.min_edge_length {
         so.min_edge_length = a;

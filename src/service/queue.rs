@@ -18,7 +18,7 @@ use sha2::{Digest, Sha256};
 use super::jobs::{now_ms, CancelReason, Job, JobRecord, JobStatus, ResultInfo};
 use super::metrics::Outcome;
 use super::problem::{Problem, ProblemKind};
-use super::Service;
+use super::server::Service;
 use crate::io::ReadOptions;
 use crate::pipeline::{self, JobError, JobStats};
 use crate::remesh::{Observer, Pass, Progress, RemeshError};

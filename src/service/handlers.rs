@@ -281,9 +281,7 @@ pub async fn cancel(
     let before = job.update(|r| {
         let s = r.status;
         if s == JobStatus::Queued {
-            r.status = JobStatus::Cancelled;
-            r.finished_ms = Some(now);
-            r.expires_ms = Some(now + ttl);
+            r.cancel(now, ttl);
         }
         s
     });

@@ -15,7 +15,7 @@ use std::time::Instant;
 
 use sha2::{Digest, Sha256};
 
-use super::jobs::{now_ms, CancelReason, Job, JobRecord, JobStatus, ResultInfo};
+use super::jobs::{now_ms, CancelReason, Job, JobRecord, ResultInfo};
 use super::metrics::Outcome;
 use super::problem::{Problem, ProblemKind};
 use super::server::Service;
@@ -263,16 +263,7 @@ pub fn catch_job_panic<T>(f: impl FnOnce() -> T) -> Result<T, Problem> {
 
 /// Runs one job from start to a final (or re-queued) state.
 pub fn run_job(svc: &Service, job: &Job) {
-    let started = job.update(|r| {
-        if r.status != JobStatus::Queued {
-            return None;
-        }
-        r.status = JobStatus::Running;
-        r.started_ms = Some(now_ms());
-        r.attempts += 1;
-        r.progress = None;
-        Some(r.clone())
-    });
+    let started = job.update(|r| r.start(now_ms()).then(|| r.clone()));
     let Some(rec) = started else { return };
     let span = tracing::info_span!(
         "job",
@@ -291,35 +282,24 @@ pub fn run_job(svc: &Service, job: &Job) {
     let outcome = catch_job_panic(|| execute(svc, job, &rec, deadline));
     let seconds = t0.elapsed().as_secs_f64();
     let now = now_ms();
-    let expires = now + svc.config.result_ttl_secs * 1000;
+    let ttl = svc.config.result_ttl_secs * 1000;
     let tris_in = rec.input.triangles;
     let fail = |problem: Problem| {
         tracing::warn!(detail = %problem.detail, kind = %problem.kind, "job failed");
-        job.update(|r| {
-            r.status = JobStatus::Failed;
-            r.finished_ms = Some(now);
-            r.expires_ms = Some(expires);
-            r.error = Some(problem);
-        });
+        job.update(|r| r.fail(now, ttl, problem));
         svc.metrics
             .job_finished(Outcome::Failed, seconds, tris_in, 0);
     };
     match outcome {
         Ok(Ok(done)) => {
             let tris_out = done.result.triangles;
-            job.update(|r| {
-                r.status = JobStatus::Succeeded;
-                r.finished_ms = Some(now);
-                r.expires_ms = Some(expires);
-                r.progress = Some(Progress {
-                    iteration: done.iterations,
-                    iterations: done.iterations,
-                    pass: Pass::Project,
-                    fraction: 1.0,
-                });
-                r.stats = Some(done.stats);
-                r.result = Some(done.result);
-            });
+            let last = Progress {
+                iteration: done.iterations,
+                iterations: done.iterations,
+                pass: Pass::Project,
+                fraction: 1.0,
+            };
+            job.update(|r| r.succeed(now, ttl, last, done.stats, done.result));
             svc.metrics
                 .job_finished(Outcome::Succeeded, seconds, tris_in, tris_out);
             tracing::info!(seconds, triangles_out = tris_out, "job succeeded");
@@ -328,20 +308,13 @@ pub fn run_job(svc: &Service, job: &Job) {
             .cancel_reason()
         {
             CancelReason::User => {
-                job.update(|r| {
-                    r.status = JobStatus::Cancelled;
-                    r.finished_ms = Some(now);
-                    r.expires_ms = Some(expires);
-                });
+                job.update(|r| r.cancel(now, ttl));
                 svc.metrics
                     .job_finished(Outcome::Cancelled, seconds, tris_in, 0);
                 tracing::info!(seconds, "job cancelled");
             }
             CancelReason::Shutdown => {
-                job.update(|r| {
-                    r.status = JobStatus::Queued;
-                    r.progress = None;
-                });
+                job.update(|r| r.requeue());
                 tracing::info!("job interrupted by shutdown; it stays queued for the next start");
             }
             CancelReason::None => fail(Problem::new(

@@ -115,8 +115,7 @@ impl Service {
         for mut r in records {
             let pending = !r.status.is_finished();
             if r.status == JobStatus::Running {
-                r.status = JobStatus::Queued;
-                r.progress = None;
+                r.requeue();
                 tracing::warn!(job_id = %r.id, "job was interrupted while running; queued again");
             }
             let id = r.id.clone();

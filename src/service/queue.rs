@@ -8,17 +8,20 @@
 
 use std::collections::VecDeque;
 use std::panic::{catch_unwind, AssertUnwindSafe};
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::thread::JoinHandle;
 use std::time::Instant;
 
 use sha2::{Digest, Sha256};
 
+use super::config::ServiceConfig;
+use super::jobs::Registry;
 use super::jobs::{now_ms, CancelReason, Job, JobRecord, ResultInfo};
+use super::metrics::Metrics;
 use super::metrics::Outcome;
 use super::problem::{Problem, ProblemKind};
-use super::server::Service;
+use super::store::Store;
 use crate::io::ReadOptions;
 use crate::pipeline::{self, JobError, JobStats};
 use crate::remesh::{Observer, Pass, Progress, RemeshError};
@@ -139,11 +142,31 @@ impl JobQueue {
     }
 }
 
-/// Starts `n` worker threads on `svc`'s queue.
-pub fn spawn_workers(svc: &Arc<Service>, n: usize) -> std::io::Result<Vec<JoinHandle<()>>> {
+/// What a worker needs from the service, and no more: the queue it takes
+/// jobs from, the jobs themselves, their files, the limits and the
+/// counters. HTTP-side state (idempotency, parse permits, shutdown flag)
+/// stays with the [`super::server::Service`].
+#[derive(Clone, Debug)]
+pub struct WorkerContext {
+    /// Limits and the result TTL.
+    pub config: ServiceConfig,
+    /// Where inputs are read and results and records written.
+    pub store: Store,
+    /// Every known job, to look up a popped id.
+    pub jobs: Arc<Registry>,
+    /// Jobs waiting for a worker.
+    pub queue: Arc<JobQueue>,
+    /// Counters a finished job updates.
+    pub metrics: Arc<Metrics>,
+    /// Workers remeshing now.
+    pub busy: Arc<AtomicUsize>,
+}
+
+/// Starts `n` worker threads on `context`'s queue.
+pub fn spawn_workers(context: &WorkerContext, n: usize) -> std::io::Result<Vec<JoinHandle<()>>> {
     (0..n)
         .map(|i| {
-            let svc = Arc::clone(svc);
+            let svc = context.clone();
             std::thread::Builder::new()
                 .name(format!("isoremesh-worker-{i}"))
                 .spawn(move || {
@@ -194,7 +217,12 @@ struct Done {
     iterations: u32,
 }
 
-fn execute(svc: &Service, job: &Job, rec: &JobRecord, deadline: Instant) -> Result<Done, RunError> {
+fn execute(
+    svc: &WorkerContext,
+    job: &Job,
+    rec: &JobRecord,
+    deadline: Instant,
+) -> Result<Done, RunError> {
     let cfg = &svc.config;
     let (bytes, external_buffers) = svc.store.read_input(rec).map_err(RunError::Storage)?;
     let read = ReadOptions {
@@ -262,7 +290,7 @@ pub fn catch_job_panic<T>(f: impl FnOnce() -> T) -> Result<T, Problem> {
 }
 
 /// Runs one job from start to a final (or re-queued) state.
-pub fn run_job(svc: &Service, job: &Job) {
+pub fn run_job(svc: &WorkerContext, job: &Job) {
     let started = job.update(|r| r.start(now_ms()).then(|| r.clone()));
     let Some(rec) = started else { return };
     let span = tracing::info_span!(
@@ -271,7 +299,7 @@ pub fn run_job(svc: &Service, job: &Job) {
         request_id = rec.request_id.as_deref().unwrap_or("-")
     );
     let _enter = span.enter();
-    svc.persist(job);
+    svc.store.persist(job);
     tracing::info!(
         attempt = rec.attempts,
         triangles = rec.input.triangles,
@@ -338,7 +366,7 @@ pub fn run_job(svc: &Service, job: &Job) {
         }
         Err(p) => fail(p),
     }
-    svc.persist(job);
+    svc.store.persist(job);
 }
 
 #[cfg(test)]

@@ -12,7 +12,7 @@ use std::time::Duration;
 use super::config::{self, ServiceConfig};
 use super::jobs::{now_ms, CancelReason, Job, JobStatus, Registry};
 use super::metrics::{Gauges, Metrics};
-use super::queue::{self, JobQueue};
+use super::queue::{self, JobQueue, WorkerContext};
 use super::routes::app;
 use super::store::Store;
 
@@ -51,14 +51,14 @@ pub struct Service {
     pub config: ServiceConfig,
     /// The data directory.
     pub store: Store,
-    /// Every known job.
-    pub jobs: Registry,
+    /// Every known job (shared with the workers).
+    pub jobs: Arc<Registry>,
     /// Jobs waiting for a worker.
     pub queue: Arc<JobQueue>,
-    /// Counters.
-    pub metrics: Metrics,
-    /// Workers remeshing now.
-    pub busy: AtomicUsize,
+    /// Counters (shared with the workers).
+    pub metrics: Arc<Metrics>,
+    /// Workers remeshing now (shared with the workers).
+    pub busy: Arc<AtomicUsize>,
     /// Serialises submissions that carry an `Idempotency-Key`, so two
     /// concurrent requests with one key create one job.
     pub idempotency_gate: tokio::sync::Mutex<()>,
@@ -83,16 +83,24 @@ impl Service {
             parse_permits: tokio::sync::Semaphore::new(workers.max(2)),
             config,
             store,
-            jobs: Registry::default(),
-            metrics: Metrics::default(),
-            busy: AtomicUsize::new(0),
+            jobs: Arc::new(Registry::default()),
+            metrics: Arc::new(Metrics::default()),
+            busy: Arc::new(AtomicUsize::new(0)),
             idempotency_gate: tokio::sync::Mutex::new(()),
             shutting_down: AtomicBool::new(false),
             workers: Mutex::new(Vec::new()),
         });
         svc.recover()?;
+        let context = WorkerContext {
+            config: svc.config.clone(),
+            store: svc.store.clone(),
+            jobs: Arc::clone(&svc.jobs),
+            queue: Arc::clone(&svc.queue),
+            metrics: Arc::clone(&svc.metrics),
+            busy: Arc::clone(&svc.busy),
+        };
         let handles =
-            queue::spawn_workers(&svc, workers).map_err(io_err("cannot start workers"))?;
+            queue::spawn_workers(&context, workers).map_err(io_err("cannot start workers"))?;
         *svc.workers.lock().unwrap_or_else(|p| p.into_inner()) = handles;
         tracing::info!(
             workers,
@@ -135,17 +143,7 @@ impl Service {
 
     /// Writes a job's record unless it was deleted; failures are logged.
     pub fn persist(&self, job: &Job) {
-        if job.is_deleted() {
-            return;
-        }
-        let _g = job.persist_lock.lock().unwrap_or_else(|p| p.into_inner());
-        if job.is_deleted() {
-            return;
-        }
-        let snap = job.snapshot();
-        if let Err(e) = self.store.write_record(&snap) {
-            tracing::error!(job_id = %snap.id, error = %e, "cannot write job record");
-        }
+        self.store.persist(job);
     }
 
     /// Removes a job and its files (it must already be unreachable for workers).

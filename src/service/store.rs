@@ -23,7 +23,7 @@ use std::fs::{self, File};
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
-use super::jobs::JobRecord;
+use super::jobs::{Job, JobRecord};
 use crate::io::{result_mesh, Format};
 use crate::trimesh::TriMesh;
 
@@ -106,6 +106,23 @@ impl Store {
     pub fn write_record(&self, record: &JobRecord) -> io::Result<()> {
         let bytes = serde_json::to_vec(record).map_err(io::Error::other)?;
         write_atomic(&self.dir(&record.id)?.join("job.json"), &bytes)
+    }
+
+    /// Writes a job's record unless it was deleted; failures are logged,
+    /// because the caller (a worker or a handler that already answered)
+    /// has nobody to report them to.
+    pub fn persist(&self, job: &Job) {
+        if job.is_deleted() {
+            return;
+        }
+        let _g = job.persist_lock.lock().unwrap_or_else(|p| p.into_inner());
+        if job.is_deleted() {
+            return;
+        }
+        let snap = job.snapshot();
+        if let Err(e) = self.write_record(&snap) {
+            tracing::error!(job_id = %snap.id, error = %e, "cannot write job record");
+        }
     }
 
     /// The uploaded mesh and its external buffers keyed by `uri`.

@@ -16,10 +16,8 @@ use std::time::Instant;
 use sha2::{Digest, Sha256};
 
 use super::config::ServiceConfig;
-use super::jobs::Registry;
-use super::jobs::{now_ms, CancelReason, Job, JobRecord, ResultInfo};
-use super::metrics::Metrics;
-use super::metrics::Outcome;
+use super::jobs::{now_ms, CancelReason, Job, JobRecord, Registry, ResultInfo};
+use super::metrics::{Metrics, Outcome};
 use super::problem::{Problem, ProblemKind};
 use super::store::Store;
 use crate::io::ReadOptions;
@@ -166,15 +164,15 @@ pub struct WorkerContext {
 pub fn spawn_workers(context: &WorkerContext, n: usize) -> std::io::Result<Vec<JoinHandle<()>>> {
     (0..n)
         .map(|i| {
-            let svc = context.clone();
+            let ctx = context.clone();
             std::thread::Builder::new()
                 .name(format!("isoremesh-worker-{i}"))
                 .spawn(move || {
-                    while let Some(id) = svc.queue.pop() {
-                        if let Some(job) = svc.jobs.get(&id) {
-                            svc.busy.fetch_add(1, Ordering::SeqCst);
-                            run_job(&svc, &job);
-                            svc.busy.fetch_sub(1, Ordering::SeqCst);
+                    while let Some(id) = ctx.queue.pop() {
+                        if let Some(job) = ctx.jobs.get(&id) {
+                            ctx.busy.fetch_add(1, Ordering::SeqCst);
+                            run_job(&ctx, &job);
+                            ctx.busy.fetch_sub(1, Ordering::SeqCst);
                         }
                     }
                 })
@@ -218,13 +216,13 @@ struct Done {
 }
 
 fn execute(
-    svc: &WorkerContext,
+    ctx: &WorkerContext,
     job: &Job,
     rec: &JobRecord,
     deadline: Instant,
 ) -> Result<Done, RunError> {
-    let cfg = &svc.config;
-    let (bytes, external_buffers) = svc.store.read_input(rec).map_err(RunError::Storage)?;
+    let cfg = &ctx.config;
+    let (bytes, external_buffers) = ctx.store.read_input(rec).map_err(RunError::Storage)?;
     let read = ReadOptions {
         external_buffers,
         max_triangles: cfg.max_input_triangles,
@@ -257,7 +255,7 @@ fn execute(
         // the directory halfway through.
         let _g = job.persist_lock.lock().unwrap_or_else(|p| p.into_inner());
         if !job.is_deleted() {
-            svc.store
+            ctx.store
                 .write_result(&rec.id, format, &encoded, &out.mesh)
                 .map_err(RunError::Storage)?;
         }
@@ -290,7 +288,7 @@ pub fn catch_job_panic<T>(f: impl FnOnce() -> T) -> Result<T, Problem> {
 }
 
 /// Runs one job from start to a final (or re-queued) state.
-pub fn run_job(svc: &WorkerContext, job: &Job) {
+pub fn run_job(ctx: &WorkerContext, job: &Job) {
     let started = job.update(|r| r.start(now_ms()).then(|| r.clone()));
     let Some(rec) = started else { return };
     let span = tracing::info_span!(
@@ -299,23 +297,23 @@ pub fn run_job(svc: &WorkerContext, job: &Job) {
         request_id = rec.request_id.as_deref().unwrap_or("-")
     );
     let _enter = span.enter();
-    svc.store.persist(job);
+    ctx.store.persist(job);
     tracing::info!(
         attempt = rec.attempts,
         triangles = rec.input.triangles,
         "job started"
     );
     let t0 = Instant::now();
-    let deadline = t0 + svc.config.job_timeout();
-    let outcome = catch_job_panic(|| execute(svc, job, &rec, deadline));
+    let deadline = t0 + ctx.config.job_timeout();
+    let outcome = catch_job_panic(|| execute(ctx, job, &rec, deadline));
     let seconds = t0.elapsed().as_secs_f64();
     let now = now_ms();
-    let ttl = svc.config.result_ttl_secs * 1000;
+    let ttl = ctx.config.result_ttl_secs * 1000;
     let tris_in = rec.input.triangles;
     let fail = |problem: Problem| {
         tracing::warn!(detail = %problem.detail, kind = %problem.kind, "job failed");
         job.update(|r| r.fail(now, ttl, problem));
-        svc.metrics
+        ctx.metrics
             .job_finished(Outcome::Failed, seconds, tris_in, 0);
     };
     match outcome {
@@ -328,7 +326,7 @@ pub fn run_job(svc: &WorkerContext, job: &Job) {
                 fraction: 1.0,
             };
             job.update(|r| r.succeed(now, ttl, last, done.stats, done.result));
-            svc.metrics
+            ctx.metrics
                 .job_finished(Outcome::Succeeded, seconds, tris_in, tris_out);
             tracing::info!(seconds, triangles_out = tris_out, "job succeeded");
         }
@@ -337,7 +335,7 @@ pub fn run_job(svc: &WorkerContext, job: &Job) {
         {
             CancelReason::User => {
                 job.update(|r| r.cancel(now, ttl));
-                svc.metrics
+                ctx.metrics
                     .job_finished(Outcome::Cancelled, seconds, tris_in, 0);
                 tracing::info!(seconds, "job cancelled");
             }
@@ -349,7 +347,7 @@ pub fn run_job(svc: &WorkerContext, job: &Job) {
                 ProblemKind::JobTimeout,
                 format!(
                     "the job ran longer than the limit of {} s and was stopped",
-                    svc.config.job_timeout_secs
+                    ctx.config.job_timeout_secs
                 ),
             )),
         },
@@ -366,7 +364,7 @@ pub fn run_job(svc: &WorkerContext, job: &Job) {
         }
         Err(p) => fail(p),
     }
-    svc.store.persist(job);
+    ctx.store.persist(job);
 }
 
 #[cfg(test)]

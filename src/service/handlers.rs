@@ -1,5 +1,5 @@
 //! One function per endpoint. Handlers translate HTTP into calls on the
-//! [`super::Service`] and the pipeline and back; blocking work
+//! [`super::server::Service`] and the pipeline and back; blocking work
 //! (parsing, file I/O, re-encoding) goes to `spawn_blocking`, and every
 //! failure leaves as a [`Problem`].
 
@@ -17,9 +17,9 @@ use super::dto::{etag, job_href, Health, JobList, JobSummary, JobView};
 use super::jobs::{now_ms, CancelReason, Idempotency, InputInfo, Job, JobRecord, JobStatus};
 use super::params::{estimate_output, InputGeometry, JobParams};
 use super::problem::{Problem, ProblemKind};
+use super::server::{AppState, Service};
 use super::store::is_job_id;
 use super::upload::{read_upload, Upload};
-use super::{AppState, Service};
 use crate::io::{Format, ReadOptions};
 use crate::pipeline;
 
@@ -281,9 +281,7 @@ pub async fn cancel(
     let before = job.update(|r| {
         let s = r.status;
         if s == JobStatus::Queued {
-            r.status = JobStatus::Cancelled;
-            r.finished_ms = Some(now);
-            r.expires_ms = Some(now + ttl);
+            r.cancel(now, ttl);
         }
         s
     });

@@ -160,6 +160,64 @@ pub struct JobRecord {
     pub result_expired: bool,
 }
 
+impl JobRecord {
+    /// `queued → running`: a worker takes the job. Returns `false` (and
+    /// changes nothing) unless the job is queued, so a job cancelled or
+    /// deleted while waiting is never started.
+    pub fn start(&mut self, now: u64) -> bool {
+        if self.status != JobStatus::Queued {
+            return false;
+        }
+        self.status = JobStatus::Running;
+        self.started_ms = Some(now);
+        self.attempts += 1;
+        self.progress = None;
+        true
+    }
+
+    /// Marks the job finished in `status` at `now`; it expires `ttl_ms`
+    /// later. Every final state goes through here so that a finished
+    /// record always carries both times.
+    fn finish(&mut self, status: JobStatus, now: u64, ttl_ms: u64) {
+        self.status = status;
+        self.finished_ms = Some(now);
+        self.expires_ms = Some(now + ttl_ms);
+    }
+
+    /// `running → succeeded` with the final progress, statistics and result.
+    pub fn succeed(
+        &mut self,
+        now: u64,
+        ttl_ms: u64,
+        progress: Progress,
+        stats: JobStats,
+        result: ResultInfo,
+    ) {
+        self.finish(JobStatus::Succeeded, now, ttl_ms);
+        self.progress = Some(progress);
+        self.stats = Some(stats);
+        self.result = Some(result);
+    }
+
+    /// `running → failed` with the problem that stopped it.
+    pub fn fail(&mut self, now: u64, ttl_ms: u64, problem: Problem) {
+        self.finish(JobStatus::Failed, now, ttl_ms);
+        self.error = Some(problem);
+    }
+
+    /// `queued | running → cancelled` on a client's request.
+    pub fn cancel(&mut self, now: u64, ttl_ms: u64) {
+        self.finish(JobStatus::Cancelled, now, ttl_ms);
+    }
+
+    /// `running → queued`: shutdown or a crash interrupted the job, which
+    /// runs again from the start, so its progress is cleared.
+    pub fn requeue(&mut self) {
+        self.status = JobStatus::Queued;
+        self.progress = None;
+    }
+}
+
 /// Why a running job is being stopped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(u8)]
@@ -407,6 +465,23 @@ mod tests {
             .unwrap()
             .stats
             .is_none());
+    }
+
+    #[test]
+    fn transitions_set_status_and_times() {
+        let mut r = sample_record();
+        assert!(r.start(10));
+        assert_eq!(
+            (r.status, r.started_ms, r.attempts),
+            (JobStatus::Running, Some(10), 1)
+        );
+        assert!(!r.start(11), "only a queued job starts");
+        r.requeue();
+        assert_eq!((r.status, r.progress), (JobStatus::Queued, None));
+        r.cancel(20, 5);
+        assert_eq!(r.status, JobStatus::Cancelled);
+        assert_eq!((r.finished_ms, r.expires_ms), (Some(20), Some(25)));
+        assert!(!r.start(30));
     }
 
     pub(crate) fn sample_record() -> JobRecord {

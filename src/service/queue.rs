@@ -8,17 +8,18 @@
 
 use std::collections::VecDeque;
 use std::panic::{catch_unwind, AssertUnwindSafe};
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::thread::JoinHandle;
 use std::time::Instant;
 
 use sha2::{Digest, Sha256};
 
-use super::jobs::{now_ms, CancelReason, Job, JobRecord, JobStatus, ResultInfo};
-use super::metrics::Outcome;
+use super::config::ServiceConfig;
+use super::jobs::{now_ms, CancelReason, Job, JobRecord, Registry, ResultInfo};
+use super::metrics::{Metrics, Outcome};
 use super::problem::{Problem, ProblemKind};
-use super::Service;
+use super::store::Store;
 use crate::io::ReadOptions;
 use crate::pipeline::{self, JobError, JobStats};
 use crate::remesh::{Observer, Pass, Progress, RemeshError};
@@ -139,19 +140,39 @@ impl JobQueue {
     }
 }
 
-/// Starts `n` worker threads on `svc`'s queue.
-pub fn spawn_workers(svc: &Arc<Service>, n: usize) -> std::io::Result<Vec<JoinHandle<()>>> {
+/// What a worker needs from the service, and no more: the queue it takes
+/// jobs from, the jobs themselves, their files, the limits and the
+/// counters. HTTP-side state (idempotency, parse permits, shutdown flag)
+/// stays with the [`super::server::Service`].
+#[derive(Clone, Debug)]
+pub struct WorkerContext {
+    /// Limits and the result TTL.
+    pub config: ServiceConfig,
+    /// Where inputs are read and results and records written.
+    pub store: Store,
+    /// Every known job, to look up a popped id.
+    pub jobs: Arc<Registry>,
+    /// Jobs waiting for a worker.
+    pub queue: Arc<JobQueue>,
+    /// Counters a finished job updates.
+    pub metrics: Arc<Metrics>,
+    /// Workers remeshing now.
+    pub busy: Arc<AtomicUsize>,
+}
+
+/// Starts `n` worker threads on `context`'s queue.
+pub fn spawn_workers(context: &WorkerContext, n: usize) -> std::io::Result<Vec<JoinHandle<()>>> {
     (0..n)
         .map(|i| {
-            let svc = Arc::clone(svc);
+            let ctx = context.clone();
             std::thread::Builder::new()
                 .name(format!("isoremesh-worker-{i}"))
                 .spawn(move || {
-                    while let Some(id) = svc.queue.pop() {
-                        if let Some(job) = svc.jobs.get(&id) {
-                            svc.busy.fetch_add(1, Ordering::SeqCst);
-                            run_job(&svc, &job);
-                            svc.busy.fetch_sub(1, Ordering::SeqCst);
+                    while let Some(id) = ctx.queue.pop() {
+                        if let Some(job) = ctx.jobs.get(&id) {
+                            ctx.busy.fetch_add(1, Ordering::SeqCst);
+                            run_job(&ctx, &job);
+                            ctx.busy.fetch_sub(1, Ordering::SeqCst);
                         }
                     }
                 })
@@ -194,9 +215,14 @@ struct Done {
     iterations: u32,
 }
 
-fn execute(svc: &Service, job: &Job, rec: &JobRecord, deadline: Instant) -> Result<Done, RunError> {
-    let cfg = &svc.config;
-    let (bytes, external_buffers) = svc.store.read_input(rec).map_err(RunError::Storage)?;
+fn execute(
+    ctx: &WorkerContext,
+    job: &Job,
+    rec: &JobRecord,
+    deadline: Instant,
+) -> Result<Done, RunError> {
+    let cfg = &ctx.config;
+    let (bytes, external_buffers) = ctx.store.read_input(rec).map_err(RunError::Storage)?;
     let read = ReadOptions {
         external_buffers,
         max_triangles: cfg.max_input_triangles,
@@ -229,7 +255,7 @@ fn execute(svc: &Service, job: &Job, rec: &JobRecord, deadline: Instant) -> Resu
         // the directory halfway through.
         let _g = job.persist_lock.lock().unwrap_or_else(|p| p.into_inner());
         if !job.is_deleted() {
-            svc.store
+            ctx.store
                 .write_result(&rec.id, format, &encoded, &out.mesh)
                 .map_err(RunError::Storage)?;
         }
@@ -262,17 +288,8 @@ pub fn catch_job_panic<T>(f: impl FnOnce() -> T) -> Result<T, Problem> {
 }
 
 /// Runs one job from start to a final (or re-queued) state.
-pub fn run_job(svc: &Service, job: &Job) {
-    let started = job.update(|r| {
-        if r.status != JobStatus::Queued {
-            return None;
-        }
-        r.status = JobStatus::Running;
-        r.started_ms = Some(now_ms());
-        r.attempts += 1;
-        r.progress = None;
-        Some(r.clone())
-    });
+pub fn run_job(ctx: &WorkerContext, job: &Job) {
+    let started = job.update(|r| r.start(now_ms()).then(|| r.clone()));
     let Some(rec) = started else { return };
     let span = tracing::info_span!(
         "job",
@@ -280,47 +297,36 @@ pub fn run_job(svc: &Service, job: &Job) {
         request_id = rec.request_id.as_deref().unwrap_or("-")
     );
     let _enter = span.enter();
-    svc.persist(job);
+    ctx.store.persist(job);
     tracing::info!(
         attempt = rec.attempts,
         triangles = rec.input.triangles,
         "job started"
     );
     let t0 = Instant::now();
-    let deadline = t0 + svc.config.job_timeout();
-    let outcome = catch_job_panic(|| execute(svc, job, &rec, deadline));
+    let deadline = t0 + ctx.config.job_timeout();
+    let outcome = catch_job_panic(|| execute(ctx, job, &rec, deadline));
     let seconds = t0.elapsed().as_secs_f64();
     let now = now_ms();
-    let expires = now + svc.config.result_ttl_secs * 1000;
+    let ttl = ctx.config.result_ttl_secs * 1000;
     let tris_in = rec.input.triangles;
     let fail = |problem: Problem| {
         tracing::warn!(detail = %problem.detail, kind = %problem.kind, "job failed");
-        job.update(|r| {
-            r.status = JobStatus::Failed;
-            r.finished_ms = Some(now);
-            r.expires_ms = Some(expires);
-            r.error = Some(problem);
-        });
-        svc.metrics
+        job.update(|r| r.fail(now, ttl, problem));
+        ctx.metrics
             .job_finished(Outcome::Failed, seconds, tris_in, 0);
     };
     match outcome {
         Ok(Ok(done)) => {
             let tris_out = done.result.triangles;
-            job.update(|r| {
-                r.status = JobStatus::Succeeded;
-                r.finished_ms = Some(now);
-                r.expires_ms = Some(expires);
-                r.progress = Some(Progress {
-                    iteration: done.iterations,
-                    iterations: done.iterations,
-                    pass: Pass::Project,
-                    fraction: 1.0,
-                });
-                r.stats = Some(done.stats);
-                r.result = Some(done.result);
-            });
-            svc.metrics
+            let last = Progress {
+                iteration: done.iterations,
+                iterations: done.iterations,
+                pass: Pass::Project,
+                fraction: 1.0,
+            };
+            job.update(|r| r.succeed(now, ttl, last, done.stats, done.result));
+            ctx.metrics
                 .job_finished(Outcome::Succeeded, seconds, tris_in, tris_out);
             tracing::info!(seconds, triangles_out = tris_out, "job succeeded");
         }
@@ -328,27 +334,20 @@ pub fn run_job(svc: &Service, job: &Job) {
             .cancel_reason()
         {
             CancelReason::User => {
-                job.update(|r| {
-                    r.status = JobStatus::Cancelled;
-                    r.finished_ms = Some(now);
-                    r.expires_ms = Some(expires);
-                });
-                svc.metrics
+                job.update(|r| r.cancel(now, ttl));
+                ctx.metrics
                     .job_finished(Outcome::Cancelled, seconds, tris_in, 0);
                 tracing::info!(seconds, "job cancelled");
             }
             CancelReason::Shutdown => {
-                job.update(|r| {
-                    r.status = JobStatus::Queued;
-                    r.progress = None;
-                });
+                job.update(|r| r.requeue());
                 tracing::info!("job interrupted by shutdown; it stays queued for the next start");
             }
             CancelReason::None => fail(Problem::new(
                 ProblemKind::JobTimeout,
                 format!(
                     "the job ran longer than the limit of {} s and was stopped",
-                    svc.config.job_timeout_secs
+                    ctx.config.job_timeout_secs
                 ),
             )),
         },
@@ -365,7 +364,7 @@ pub fn run_job(svc: &Service, job: &Job) {
         }
         Err(p) => fail(p),
     }
-    svc.persist(job);
+    ctx.store.persist(job);
 }
 
 #[cfg(test)]

@@ -16,7 +16,7 @@ use tower_http::LatencyUnit;
 use tracing::Level;
 
 use super::handlers;
-use super::AppState;
+use super::server::AppState;
 
 /// One route: method, path (axum syntax, `{id}`), handler.
 pub struct Route {

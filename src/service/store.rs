@@ -15,23 +15,17 @@
 //! A job exists once its `job.json` does; a directory without one is an
 //! interrupted submission and is removed at startup. Results are written
 //! before the record that says `succeeded`, so a finished record always has
-//! its files. `result.mesh` is a small binary form of [`TriMesh`] (positions
-//! as f64, normals, labels) because glTF would round positions to f32 and
-//! STL/OFF would drop labels and normals.
+//! its files. `result.mesh` is the exact binary form of [`TriMesh`] written by
+//! `crate::io::result_mesh`.
 
 use std::collections::HashMap;
 use std::fs::{self, File};
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
-use glam::DVec3;
-
-use super::jobs::JobRecord;
-use crate::io::Format;
-use crate::trimesh::{Label, TriMesh};
-
-/// Magic and version of `result.mesh`.
-const MESH_MAGIC: &[u8; 8] = b"IRMESH01";
+use super::jobs::{Job, JobRecord};
+use crate::io::{result_mesh, Format};
+use crate::trimesh::TriMesh;
 
 /// External glTF buffers keyed by `uri`.
 pub type Buffers = HashMap<String, Vec<u8>>;
@@ -114,6 +108,23 @@ impl Store {
         write_atomic(&self.dir(&record.id)?.join("job.json"), &bytes)
     }
 
+    /// Writes a job's record unless it was deleted; failures are logged,
+    /// because the caller (a worker or a handler that already answered)
+    /// has nobody to report them to.
+    pub fn persist(&self, job: &Job) {
+        if job.is_deleted() {
+            return;
+        }
+        let _g = job.persist_lock.lock().unwrap_or_else(|p| p.into_inner());
+        if job.is_deleted() {
+            return;
+        }
+        let snap = job.snapshot();
+        if let Err(e) = self.write_record(&snap) {
+            tracing::error!(job_id = %snap.id, error = %e, "cannot write job record");
+        }
+    }
+
     /// The uploaded mesh and its external buffers keyed by `uri`.
     pub fn read_input(&self, record: &JobRecord) -> io::Result<(Vec<u8>, Buffers)> {
         let dir = self.dir(&record.id)?;
@@ -135,7 +146,7 @@ impl Store {
     ) -> io::Result<()> {
         let dir = self.dir(id)?;
         write_atomic(&dir.join(format!("result.{}", format.extension())), encoded)?;
-        write_atomic(&dir.join("result.mesh"), &encode_mesh(mesh)?)
+        write_atomic(&dir.join("result.mesh"), &result_mesh::encode(mesh)?)
     }
 
     /// Reads the stored result file of `format`.
@@ -145,7 +156,7 @@ impl Store {
 
     /// Reads the exact result mesh.
     pub fn read_result_mesh(&self, id: &str) -> io::Result<TriMesh> {
-        decode_mesh(&fs::read(self.dir(id)?.join("result.mesh"))?)
+        result_mesh::decode(&fs::read(self.dir(id)?.join("result.mesh"))?)
     }
 
     /// Removes a job's uploads and results but keeps its record.
@@ -200,144 +211,9 @@ impl Store {
     }
 }
 
-fn put_u64(out: &mut Vec<u8>, v: u64) {
-    out.extend_from_slice(&v.to_le_bytes());
-}
-
-/// Serialises a mesh exactly: magic, five u64 counts (positions, triangles,
-/// normals, face labels, label-JSON bytes), then the arrays little-endian.
-pub fn encode_mesh(m: &TriMesh) -> io::Result<Vec<u8>> {
-    let labels = serde_json::to_vec(&m.labels).map_err(io::Error::other)?;
-    let mut out =
-        Vec::with_capacity(48 + m.positions.len() * 48 + m.triangles.len() * 16 + labels.len());
-    out.extend_from_slice(MESH_MAGIC);
-    for n in [
-        m.positions.len(),
-        m.triangles.len(),
-        m.normals.len(),
-        m.face_labels.len(),
-        labels.len(),
-    ] {
-        put_u64(&mut out, n as u64);
-    }
-    for p in m.positions.iter().chain(&m.normals) {
-        for c in p.to_array() {
-            out.extend_from_slice(&c.to_le_bytes());
-        }
-    }
-    for t in &m.triangles {
-        for i in t {
-            out.extend_from_slice(&i.to_le_bytes());
-        }
-    }
-    for l in &m.face_labels {
-        out.extend_from_slice(&l.to_le_bytes());
-    }
-    out.extend_from_slice(&labels);
-    Ok(out)
-}
-
-struct Reader<'a>(&'a [u8]);
-
-impl Reader<'_> {
-    fn take(&mut self, n: usize) -> io::Result<&[u8]> {
-        if n > self.0.len() {
-            return Err(io::Error::new(
-                io::ErrorKind::InvalidData,
-                "result.mesh is truncated",
-            ));
-        }
-        let (a, b) = self.0.split_at(n);
-        self.0 = b;
-        Ok(a)
-    }
-    fn u64(&mut self) -> io::Result<u64> {
-        let b = self.take(8)?;
-        Ok(u64::from_le_bytes(b.try_into().map_err(io::Error::other)?))
-    }
-    fn count(&mut self, elem: usize) -> io::Result<usize> {
-        let n = usize::try_from(self.u64()?).map_err(io::Error::other)?;
-        if n.checked_mul(elem).is_none_or(|b| b > self.0.len()) {
-            return Err(io::Error::new(
-                io::ErrorKind::InvalidData,
-                "result.mesh count out of range",
-            ));
-        }
-        Ok(n)
-    }
-    fn f64(&mut self) -> io::Result<f64> {
-        Ok(f64::from_bits(self.u64()?))
-    }
-    fn u32(&mut self) -> io::Result<u32> {
-        let b = self.take(4)?;
-        Ok(u32::from_le_bytes(b.try_into().map_err(io::Error::other)?))
-    }
-    fn vec3(&mut self) -> io::Result<DVec3> {
-        Ok(DVec3::new(self.f64()?, self.f64()?, self.f64()?))
-    }
-}
-
-/// Reads [`encode_mesh`]'s format back, checking every count and the mesh's
-/// invariants.
-pub fn decode_mesh(bytes: &[u8]) -> io::Result<TriMesh> {
-    let mut r = Reader(bytes);
-    if r.take(8)? != MESH_MAGIC {
-        return Err(io::Error::new(
-            io::ErrorKind::InvalidData,
-            "not a result.mesh file",
-        ));
-    }
-    let np = r.count(24)?;
-    let nt = r.count(12)?;
-    let nn = r.count(24)?;
-    let nl = r.count(4)?;
-    let nj = r.count(1)?;
-    let positions = (0..np).map(|_| r.vec3()).collect::<io::Result<_>>()?;
-    let normals = (0..nn).map(|_| r.vec3()).collect::<io::Result<_>>()?;
-    let triangles = (0..nt)
-        .map(|_| Ok([r.u32()?, r.u32()?, r.u32()?]))
-        .collect::<io::Result<_>>()?;
-    let face_labels = (0..nl).map(|_| r.u32()).collect::<io::Result<_>>()?;
-    let labels = serde_json::from_slice::<Vec<Label>>(r.take(nj)?).map_err(io::Error::other)?;
-    let m = TriMesh {
-        positions,
-        triangles,
-        normals,
-        face_labels,
-        labels,
-    };
-    m.check()
-        .map_err(|e| io::Error::new(io::ErrorKind::InvalidData, e))?;
-    Ok(m)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::trimesh::Material;
-
-    #[test]
-    fn result_mesh_round_trips_exactly() {
-        let mut m = crate::shapes::icosphere(1);
-        m.positions[0].x += 1e-13;
-        m.normals = m.positions.iter().map(|p| p.normalize()).collect();
-        m.face_labels = (0..m.triangles.len() as u32).map(|f| f % 2).collect();
-        m.labels = vec![
-            Label::default(),
-            Label {
-                name: Some("red".into()),
-                material: Some(Material {
-                    base_color_factor: [1.0, 0.0, 0.0, 1.0],
-                    ..Default::default()
-                }),
-            },
-        ];
-        let bytes = encode_mesh(&m).unwrap();
-        assert_eq!(decode_mesh(&bytes).unwrap(), m);
-        for cut in [0, 7, 20, bytes.len() / 2, bytes.len() - 1] {
-            assert!(decode_mesh(&bytes[..cut]).is_err(), "cut at {cut}");
-        }
-    }
 
     #[test]
     fn atomic_write_replaces_and_leaves_no_temp_file() {

@@ -29,7 +29,7 @@ use sha2::{Digest, Sha256};
 
 use super::params::JobParams;
 use super::problem::{Problem, ProblemKind};
-use super::AppState;
+use super::server::AppState;
 use crate::io::Format;
 
 /// One embedded file.

@@ -12,23 +12,12 @@
 set -uo pipefail
 export DEBIAN_FRONTEND=noninteractive
 export PLAYWRIGHT_SKIP_BROWSER_DOWNLOAD=1
+NAME=install-browser-tools
+log=/tmp/isoremesh-install-browser-tools.log
+# shellcheck source=lib.sh
+. "$(dirname "$0")/lib.sh"
 cd "$(dirname "$0")/.."
 
-say() { echo "install-browser-tools: $*" >&2; }
-fail() { say "FAILED: $*"; exit 1; }
-log=/tmp/isoremesh-install-browser-tools.log
-
-# Runs "$@" up to 4 times, 10 s apart: a mirror that is briefly unavailable
-# should not turn into a failed run.
-retry() {
-    local n
-    for n in 1 2 3 4; do
-        if "$@"; then return 0; fi
-        say "attempt $n failed: $*"
-        [ "$n" -lt 4 ] && sleep 10
-    done
-    return 1
-}
 
 installed=""
 need=()

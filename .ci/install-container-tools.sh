@@ -19,21 +19,10 @@ export DEBIAN_FRONTEND=noninteractive
 BASE_IMAGE="${ISOREMESH_CI_BASE_IMAGE:-localhost/debian:bookworm-slim}"
 SUITE="${ISOREMESH_CI_SUITE:-bookworm}"
 
-say() { echo "install-container-tools: $*" >&2; }
-fail() { say "FAILED: $*"; exit 1; }
+NAME=install-container-tools
 log=/tmp/isoremesh-install-container-tools.log
-
-# Runs "$@" up to 4 times, 10 s apart: a mirror that is briefly unavailable
-# should not turn into a skipped test.
-retry() {
-    local n
-    for n in 1 2 3 4; do
-        if "$@"; then return 0; fi
-        say "attempt $n failed: $*"
-        [ "$n" -lt 4 ] && sleep 10
-    done
-    return 1
-}
+# shellcheck source=lib.sh
+. "$(dirname "$0")/lib.sh"
 
 if docker info >/dev/null 2>&1; then
     echo "install-container-tools: a Docker engine answers; nothing to install"

@@ -250,6 +250,7 @@ pub struct RemeshOutput {
     /// The target edge length at each input vertex, as the sizing field
     /// assigned it before the first pass, in the vertex order of the
     /// input's [`Mesh::to_trimesh`]: what the input is measured against.
+    /// Adaptive sizing only; empty under uniform sizing, whose reference is L.
     pub input_vertex_target: Vec<f64>,
     /// What was done.
     pub report: RemeshReport,
@@ -300,7 +301,13 @@ fn run(
 
     enter(0, Pass::Prepare)?;
     let mut st = State::new(input, options, pool)?;
-    let input_vertex_target = st.size.clone();
+    // Only adaptive jobs measure their input against the size field; uniform
+    // ones measure against L and need no copy.
+    let input_vertex_target = if options.sizing == Sizing::Adaptive {
+        st.size.clone()
+    } else {
+        Vec::new()
+    };
     let mut report = RemeshReport::of_input(&st);
     report.seconds.prepare = start.elapsed().as_secs_f64();
 

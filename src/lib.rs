@@ -15,6 +15,7 @@
 //! | [`stats`] | quality statistics: edge lengths, valence, angles, distances |
 //! | [`curvature`] | per-vertex principal curvatures (Rusinkiewicz 2004), feature-aware, and feature-polyline curvature |
 //! | [`remesh`] | the Botsch–Kobbelt remesher: options, driver, one pass per file, progress and cancellation |
+//! | [`reference`] | the per-job [`reference::Reference`]: the input as read, repaired, indexed, welded and feature-detected once for the remesher and the statistics |
 //! | [`pipeline`] | a whole job on bytes: detect, read, repair, remesh, measure, encode |
 //! | [`shapes`] | icosphere, torus, cylinder, cube and other shapes generated in code |
 //! | [`sizing`] | the adaptive sizing field: target edge lengths from a tolerance, clamped and gradation-limited |
@@ -30,6 +31,7 @@ pub mod geometry;
 pub mod io;
 pub mod mesh;
 pub mod pipeline;
+pub mod reference;
 pub mod remesh;
 #[cfg(feature = "service")]
 pub mod service;

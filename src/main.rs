@@ -196,9 +196,9 @@ fn external_buffers(
 
 fn stats_command(a: StatsArgs) -> Result<(), Failure> {
     let input = load(&a.input, a.format)?;
-    let mesh = input.source;
+    let mesh = &input.source;
     let reference = match &a.reference {
-        Some(p) => Some(load(p, None)?.source),
+        Some(p) => Some(load(p, None)?),
         None => None,
     };
     if let Some(l) = a.target_edge_length {
@@ -209,10 +209,10 @@ fn stats_command(a: StatsArgs) -> Result<(), Failure> {
         }
     }
     let s = stats::compute(
-        &mesh,
+        mesh,
         &StatsOptions {
             target_edge_length: a.target_edge_length,
-            reference: reference.as_ref(),
+            reference: reference.as_ref().map(|r| &r.source),
             samples_per_side: a.samples,
             sample_seed: a.seed,
             repairs: Some(input.repairs),
@@ -314,23 +314,23 @@ fn remesh_command(a: RemeshArgs) -> Result<(), Failure> {
     if let Some(b) = &observer.0 {
         b.finish_and_clear();
     }
-    let (mesh, out) = result?;
+    let remeshed = result?;
     let attributes = if o.quality_attributes {
-        pipeline::quality_attributes(&mesh, &out, &o)
+        pipeline::quality_attributes(&remeshed, &o)
     } else {
         Default::default()
     };
-    let bytes =
-        pipeline::encode_with(&mesh, out_format, &attributes).map_err(|e| fail(&a.output, e))?;
+    let bytes = pipeline::encode_with(&remeshed.written, out_format, &attributes)
+        .map_err(|e| fail(&a.output, e))?;
     std::fs::write(&a.output, bytes).map_err(|e| fail(&a.output, e))?;
     if let Some(path) = &a.stats {
-        let stats = pipeline::measure(&input, &out, &o);
+        let stats = pipeline::measure(&input, &remeshed, &o);
         print!("{}", stats.headline.render());
         let doc = serde_json::json!({
             "headline": stats.headline,
             "input": stats.input,
             "output": stats.output,
-            "report": out.report,
+            "report": remeshed.out.report,
         });
         let text = serde_json::to_vec_pretty(&doc).map_err(|e| Failure(e.to_string()))?;
         std::fs::write(path, text).map_err(|e| fail(path, e))?;

@@ -5,10 +5,12 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::bvh::SurfaceIndex;
+use std::sync::Arc;
+
 use crate::features::FeatureOptions;
 use crate::io::{self, Attribute, Attributes, Format, ReadOptions, WriteOptions};
-use crate::mesh::{BuildError, Mesh, RepairReport, EDGE_FEATURE};
+use crate::mesh::{BuildError, Mesh, EDGE_FEATURE};
+use crate::reference::Reference;
 use crate::remesh::{self, Observer, RemeshError, RemeshOptions, RemeshReport};
 use crate::stats::{self, Headline, MeshStats, StatsOptions};
 use crate::trimesh::TriMesh;
@@ -31,18 +33,23 @@ pub enum JobError {
     Remesh(#[from] RemeshError),
 }
 
-/// A parsed and repaired input.
+/// A parsed and repaired input: its format and the job's [`Reference`],
+/// which the remesher and the statistics share. It dereferences to the
+/// reference (`input.mesh`, `input.source`, `input.repairs`).
 #[derive(Clone, Debug)]
 pub struct LoadedInput {
     /// The detected (or given) format.
     pub format: Format,
-    /// The half-edge mesh after repair.
-    pub mesh: Mesh,
-    /// The triangles as read, before repair: what the input statistics and
-    /// the output's distance describe (welded, as the benchmark sees it).
-    pub source: TriMesh,
-    /// What was repaired (including ignored non-triangle primitives).
-    pub repairs: RepairReport,
+    /// The input as read, repaired, and (on first use) indexed, welded and
+    /// feature-detected.
+    pub reference: Arc<Reference>,
+}
+
+impl std::ops::Deref for LoadedInput {
+    type Target = Reference;
+    fn deref(&self) -> &Reference {
+        &self.reference
+    }
 }
 
 /// Reads `bytes` (named `file_name` if known) and builds the repaired mesh.
@@ -58,9 +65,7 @@ pub fn load(
     repairs.ignored_primitives = imported.ignored_primitives;
     Ok(LoadedInput {
         format,
-        mesh,
-        source: imported.mesh,
-        repairs,
+        reference: Arc::new(Reference::from_parts(imported.mesh, mesh, repairs)),
     })
 }
 
@@ -100,30 +105,44 @@ pub fn run(
     options: &RemeshOptions,
     observer: &mut impl Observer,
 ) -> Result<JobOutput, JobError> {
-    let (mesh, out) = remesh_only(input, options, observer)?;
-    let stats = measure(input, &out, options);
+    let remeshed = remesh_only(input, options, observer)?;
+    let stats = measure(input, &remeshed, options);
     let attributes = if options.quality_attributes {
-        quality_attributes(&mesh, &out, options)
+        quality_attributes(&remeshed, options)
     } else {
         Attributes::default()
     };
     Ok(JobOutput {
-        mesh,
+        mesh: remeshed.written,
         attributes,
         stats,
-        report: out.report,
+        report: remeshed.out.report,
     })
 }
 
-/// Remeshes a loaded input without measuring it; returns the output with
-/// normals split along its feature edges, and the engine's output.
+/// A remesh before measurement: the engine's output and the two triangle
+/// forms of it that a job uses.
+#[derive(Clone, Debug)]
+pub struct Remeshed {
+    /// The output as written: normals split along its feature edges.
+    pub written: TriMesh,
+    /// The output's triangles grouped by label, without normals: what the
+    /// statistics measure (the faces in the order a reader of the file sees
+    /// them).
+    pub surface: TriMesh,
+    /// The engine's output.
+    pub out: remesh::RemeshOutput,
+}
+
+/// Remeshes a loaded input without measuring it.
 pub fn remesh_only(
     input: &LoadedInput,
     options: &RemeshOptions,
     observer: &mut impl Observer,
-) -> Result<(TriMesh, remesh::RemeshOutput), JobError> {
-    let out = remesh::remesh(&input.mesh, options, observer)?;
-    let output_tm = output_trimesh(&out);
+) -> Result<Remeshed, JobError> {
+    let out = remesh::remesh_reference(&input.reference, options, observer)?;
+    let mut surface = out.mesh.to_trimesh();
+    surface.group_faces_by_label();
     let features: Vec<[u32; 2]> = out
         .mesh
         .edges()
@@ -133,34 +152,23 @@ pub fn remesh_only(
             [a.0, b.0]
         })
         .collect();
-    let mesh = io::with_split_normals(&output_tm, options.feature_angle, &features);
-    Ok((mesh, out))
-}
-
-/// The output as it is written: faces grouped by label, so that the
-/// statistics sample the faces in the order a reader of the file sees.
-fn output_trimesh(out: &remesh::RemeshOutput) -> TriMesh {
-    let mut tm = out.mesh.to_trimesh();
-    tm.group_faces_by_label();
-    tm
+    let written = io::with_split_normals(&surface, options.feature_angle, &features);
+    Ok(Remeshed {
+        written,
+        surface,
+        out,
+    })
 }
 
 /// Input and output statistics of a finished remesh, both against the
 /// job's reference (the target length L under uniform sizing, the size
 /// field under adaptive sizing), the output with its distance to the input.
-pub fn measure(
-    input: &LoadedInput,
-    out: &remesh::RemeshOutput,
-    options: &RemeshOptions,
-) -> JobStats {
-    let input_tm = &input.source;
-    let output_tm = output_trimesh(out);
+/// The input's welded view, spatial index and features come from its
+/// [`Reference`], built once for both sides.
+pub fn measure(input: &LoadedInput, remeshed: &Remeshed, options: &RemeshOptions) -> JobStats {
+    let out = &remeshed.out;
     let adaptive = options.sizing == remesh::Sizing::Adaptive;
     let l = out.report.target_edge_length;
-    // The repaired surface (no degenerate faces) answers the distance
-    // queries; it is the same surface as the source's.
-    let repaired = input.mesh.to_trimesh();
-    let index = SurfaceIndex::from_trimesh(&repaired);
     let features = Some(FeatureOptions {
         preserve_features: options.preserve_features,
         feature_angle_deg: options.feature_angle,
@@ -170,9 +178,9 @@ pub fn measure(
         ..FeatureOptions::default()
     });
     let input_target =
-        adaptive.then(|| source_targets(input_tm, &repaired, &out.input_vertex_target));
-    let input_stats = stats::compute(
-        input_tm,
+        adaptive.then(|| source_targets(&input.source, input.surface(), &out.input_vertex_target));
+    let input_stats = stats::compute_input(
+        &input.reference,
         &StatsOptions {
             target_edge_length: (!adaptive).then_some(l),
             vertex_target: input_target.as_deref(),
@@ -182,11 +190,10 @@ pub fn measure(
         },
     );
     let output_stats = stats::compute(
-        &output_tm,
+        &remeshed.surface,
         &StatsOptions {
             target_edge_length: (!adaptive).then_some(l),
-            reference: Some(input_tm),
-            reference_index: Some(&index),
+            prepared: Some(&input.reference),
             samples_per_side: DISTANCE_SAMPLES,
             vertex_target: adaptive.then_some(out.vertex_target.as_slice()),
             features,
@@ -241,18 +248,16 @@ pub fn encode_with(
     )?)
 }
 
-/// The `quality_attributes` of a remesh's written `mesh` (as
-/// [`remesh_only`] returns it): per face `quality_min_angle` (smallest
+/// The `quality_attributes` of a remesh's written mesh: per face `quality_min_angle` (smallest
 /// angle, degrees) and `quality_edge_ratio` (mean edge length over the
 /// mean target of its corners: L under uniform sizing, the size field
 /// under adaptive sizing, as the statistics measure), per vertex `valence`.
-pub fn quality_attributes(
-    mesh: &TriMesh,
-    out: &remesh::RemeshOutput,
-    options: &RemeshOptions,
-) -> Attributes {
+pub fn quality_attributes(remeshed: &Remeshed, options: &RemeshOptions) -> Attributes {
+    let (mesh, out) = (&remeshed.written, &remeshed.out);
+    // The grouped surface keeps the engine's positions in order: only the
+    // faces are regrouped.
     let targets = (options.sizing == remesh::Sizing::Adaptive)
-        .then(|| source_targets(mesh, &out.mesh.to_trimesh(), &out.vertex_target));
+        .then(|| source_targets(mesh, &remeshed.surface, &out.vertex_target));
     let q = stats::element_quality(mesh, out.report.target_edge_length, targets.as_deref());
     let named = |name: &str, values: Vec<f32>| Attribute {
         name: name.to_string(),

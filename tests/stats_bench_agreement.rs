@@ -33,7 +33,7 @@ fn rel(a: f64, b: f64) -> f64 {
 /// ```
 #[test]
 fn distances_are_the_ones_quality_py_reports() {
-    let reference = data_support::load("spot.obj").source;
+    let reference = data_support::load("spot.obj").source.clone();
     let mesh = scaled(&reference);
     // (seed, hausdorff, mean, rms), all relative to the diagonal.
     let cases = [

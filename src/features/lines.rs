@@ -40,6 +40,16 @@ impl FeatureSet {
         self.edge_flags.iter().filter(|f| f.contains(flags)).count()
     }
 
+    /// The feature edges having all reasons in `flags`, in edge order.
+    pub fn edges_with(&self, flags: EdgeFlags) -> Vec<[u32; 2]> {
+        self.edges
+            .iter()
+            .zip(&self.edge_flags)
+            .filter(|(_, f)| f.contains(flags))
+            .map(|(&e, _)| e)
+            .collect()
+    }
+
     /// Whether input vertex `v` is a corner.
     #[inline]
     pub fn is_corner(&self, v: u32) -> bool {

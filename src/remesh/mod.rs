@@ -39,6 +39,7 @@ use std::cell::RefCell;
 use std::time::Instant;
 
 use crate::mesh::Mesh;
+use crate::reference::Reference;
 use state::State;
 
 /// The passes of one iteration, reported through [`Observer::progress`].
@@ -271,6 +272,21 @@ pub fn remesh(
     if input.face_count() == 0 {
         return Err(RemeshError::EmptyInput);
     }
+    remesh_reference(&Reference::from_mesh(input.clone()), options, observer)
+}
+
+/// [`remesh`] of a job's [`Reference`]: the remesher uses its repaired mesh
+/// and its spatial index (building the index if nobody has yet), so that the
+/// statistics that follow reuse them.
+pub fn remesh_reference(
+    input: &Reference,
+    options: &RemeshOptions,
+    observer: &mut impl Observer,
+) -> Result<RemeshOutput, RemeshError> {
+    options.validate()?;
+    if input.mesh.face_count() == 0 {
+        return Err(RemeshError::EmptyInput);
+    }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(options.threads.unwrap_or(0))
         .build()
@@ -279,7 +295,7 @@ pub fn remesh(
 }
 
 fn run(
-    input: &Mesh,
+    input: &Reference,
     options: &RemeshOptions,
     observer: &mut impl Observer,
     pool: rayon::ThreadPool,

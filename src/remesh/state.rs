@@ -6,6 +6,8 @@
 //! `refine_curved` builds the adaptive field of [`crate::sizing`] at the
 //! chord tolerance [`CURVED_TOLERANCE`]·L, clamped to [3/4·L, L].
 
+use std::sync::Arc;
+
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -17,6 +19,7 @@ use crate::features::{detect_features, FeatureOptions, FeatureSet, VertexKind};
 use crate::mesh::{
     scatter, CollapseResult, EdgeId, HalfedgeId, Handle, Mesh, SplitResult, VertexId, EDGE_FEATURE,
 };
+use crate::reference::Reference;
 use crate::sizing::{SizingField, SizingOptions};
 use crate::trimesh::TriMesh;
 
@@ -28,7 +31,9 @@ pub(super) use crate::sizing::{COLLAPSE_FACTOR, SPLIT_FACTOR};
 
 pub(super) struct State {
     pub mesh: Mesh,
-    pub index: SurfaceIndex,
+    /// The closest-point index over the input, shared with the job's
+    /// [`Reference`].
+    pub index: Arc<SurfaceIndex>,
     pub features: FeatureSet,
     pub sizing: Option<SizingField>,
     /// Per vertex: [`SMOOTH`], [`CORNER`] or the feature line id.
@@ -62,7 +67,7 @@ pub(super) struct State {
 /// Everything of [`State`] but the pool, built inside the pool.
 pub(super) struct PartialState {
     mesh: Mesh,
-    index: SurfaceIndex,
+    index: Arc<SurfaceIndex>,
     features: FeatureSet,
     sizing: Option<SizingField>,
     kind: Vec<u32>,
@@ -80,7 +85,7 @@ pub(super) struct PartialState {
 
 impl State {
     pub fn new(
-        input: &Mesh,
+        input: &Reference,
         options: &RemeshOptions,
         pool: rayon::ThreadPool,
     ) -> Result<Self, RemeshError> {
@@ -105,12 +110,11 @@ impl State {
         })
     }
 
-    fn prepare(input: &Mesh, options: &RemeshOptions) -> Result<PartialState, RemeshError> {
-        let mut mesh = input.clone();
-        if mesh.has_garbage() {
-            mesh.compact();
-        }
-        let tm = mesh.to_trimesh();
+    fn prepare(input: &Reference, options: &RemeshOptions) -> Result<PartialState, RemeshError> {
+        // The reference's mesh is compact, so its surface is `mesh`'s
+        // triangles, vertex for vertex.
+        let mut mesh = input.mesh.clone();
+        let tm = input.surface();
         let diag = tm.bbox_diagonal();
         let area = tm.area();
         let uniform_l =
@@ -124,14 +128,14 @@ impl State {
         // build is serial, and the other side's loops fill the second core.
         let ((index, (vertex_face_start, vertex_faces), face_neighbors), reference) = rayon::join(
             || {
-                let index = SurfaceIndex::from_trimesh(&tm);
-                let csr = vertex_face_csr(&tm);
-                let neighbors = face_neighbors(&tm, &csr.0, &csr.1);
+                let index = Arc::clone(input.index());
+                let csr = vertex_face_csr(tm);
+                let neighbors = face_neighbors(tm, &csr.0, &csr.1);
                 (index, csr, neighbors)
             },
-            || Reference::build(&mesh, &tm, options, uniform_l, diag, area),
+            || Derived::build(&mesh, tm, options, uniform_l, diag, area),
         );
-        let Reference {
+        let Derived {
             features,
             sizing,
             size,
@@ -311,8 +315,8 @@ pub(super) const CURVED_TOLERANCE: f64 = 2.0 / 15.0;
 pub(super) const CURVED_MIN_EDGE: f64 = 0.75;
 
 /// What prepare derives from the input beside the spatial index: the
-/// features, the sizing and the per-vertex kinds and hints.
-struct Reference {
+/// features to keep, the sizing and the per-vertex kinds and hints.
+struct Derived {
     features: FeatureSet,
     sizing: Option<SizingField>,
     size: Vec<f64>,
@@ -321,7 +325,7 @@ struct Reference {
     fixed_turns: u64,
 }
 
-impl Reference {
+impl Derived {
     /// Detects the features, builds the sizing and anchors the feature
     /// vertices that must not move.
     ///

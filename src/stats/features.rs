@@ -90,18 +90,28 @@ pub struct FeatureFidelity {
     pub uncovered_samples: u64,
 }
 
-/// The `features` section of `mesh` (detected with `opts`), with its
-/// fidelity to `reference` at target length `target` when both are given.
+/// The `features` section of `mesh` (detected with `opts`, unless `own`
+/// gives them already), with its fidelity to `reference` at target length
+/// `target` when both are given. The reference comes with its features
+/// for `opts` when they are already detected.
 pub fn feature_stats(
     mesh: &TriMesh,
     opts: &FeatureOptions,
-    reference: Option<&TriMesh>,
+    own: Option<&FeatureSet>,
+    reference: Option<(&TriMesh, Option<&FeatureSet>)>,
     target: Option<f64>,
 ) -> FeatureStats {
-    let fs = detect_features(mesh, opts);
+    let detected;
+    let fs = match own {
+        Some(fs) => fs,
+        None => {
+            detected = detect_features(mesh, opts);
+            &detected
+        }
+    };
     let fidelity = match (reference, target) {
-        (Some(r), Some(l)) if l > 0.0 && l.is_finite() && !r.triangles.is_empty() => {
-            Some(fidelity(mesh, &fs, r, opts, l))
+        (Some((r, rfs)), Some(l)) if l > 0.0 && l.is_finite() && !r.triangles.is_empty() => {
+            Some(fidelity(mesh, fs, r, rfs, opts, l))
         }
         _ => None,
     };
@@ -119,12 +129,30 @@ fn fidelity(
     mesh: &TriMesh,
     fs: &FeatureSet,
     reference: &TriMesh,
+    reference_features: Option<&FeatureSet>,
     opts: &FeatureOptions,
     l: f64,
 ) -> FeatureFidelity {
-    let rfs = detect_features(reference, opts);
+    let detected;
+    let rfs = match reference_features {
+        Some(rfs) => rfs,
+        None => {
+            detected = detect_features(reference, opts);
+            &detected
+        }
+    };
     let step = l / 4.0;
-    let sharp = polyline::sharp_edge_distance(reference, mesh, opts.feature_angle_deg, step);
+    // The reference's sharp edges are its feature set's when that set was
+    // detected with sharp edges on, at a finite angle and unfiltered (the
+    // same classification); otherwise they are classified on their own.
+    let sharp = if opts.preserve_features
+        && opts.feature_angle_deg.is_finite()
+        && opts.min_crease_length <= 0.0
+    {
+        polyline::sharp_edge_distance_of(reference, &rfs.edges_with(EdgeFlags::SHARP), mesh, step)
+    } else {
+        polyline::sharp_edge_distance(reference, mesh, opts.feature_angle_deg, step)
+    };
     let tol = ON_LINE_TOLERANCE * l;
 
     // Feature edges of the mesh: end points and midpoints against the

@@ -43,7 +43,9 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::bvh::SurfaceIndex;
+use crate::features::FeatureSet;
 use crate::mesh::RepairReport;
+use crate::reference::Reference;
 use crate::trimesh::TriMesh;
 
 use topology::{count_sets, EdgeTable, UnionFind};
@@ -64,6 +66,10 @@ pub struct StatsOptions<'a> {
     pub reference: Option<&'a TriMesh>,
     /// A prebuilt index of `reference`, reused instead of building one.
     pub reference_index: Option<&'a SurfaceIndex>,
+    /// The job's prepared reference: when given, it stands for `reference`
+    /// and `reference_index`, and its welded view, spatial index and
+    /// measured features are reused instead of built again.
+    pub prepared: Option<&'a Reference>,
     /// Area-uniform samples per side for the distance (vertices are added);
     /// default 200,000, as `quality.py`.
     pub samples_per_side: usize,
@@ -88,6 +94,7 @@ impl Default for StatsOptions<'_> {
             target_edge_length: None,
             reference: None,
             reference_index: None,
+            prepared: None,
             samples_per_side: 200_000,
             sample_seed: distance::DEFAULT_SEED,
             repairs: None,
@@ -167,23 +174,63 @@ fn chunked<A: Send + Clone>(
 /// way, so distance samples fall where `quality.py` puts them.
 pub fn compute(mesh: &TriMesh, opts: &StatsOptions) -> MeshStats {
     let (welded, origin) = mesh.welded();
-    let targets: Option<Vec<f64>> = opts
-        .vertex_target
-        .filter(|t| t.len() == mesh.positions.len())
-        .map(|t| origin.iter().map(|&i| t[i as usize]).collect());
-    let reference = opts.reference.map(|r| r.welded().0);
+    let targets = welded_targets(opts.vertex_target, mesh.positions.len(), &origin);
+    let owned_reference;
+    let (reference, reference_index) = match opts.prepared {
+        Some(r) => (Some(r.welded().0), Some(&**r.index())),
+        None => {
+            owned_reference = opts.reference.map(|r| r.welded().0);
+            (owned_reference.as_ref(), opts.reference_index)
+        }
+    };
     compute_welded(
         &welded,
         &StatsOptions {
-            reference: reference.as_ref(),
+            reference,
+            reference_index,
             vertex_target: targets.as_deref(),
             ..*opts
         },
+        None,
     )
 }
 
-/// [`compute`] on a mesh that is already welded.
-fn compute_welded(mesh: &TriMesh, opts: &StatsOptions) -> MeshStats {
+/// [`compute`] of a job's input itself: the reference's welded view and
+/// measured features are reused, not built again. `opts.vertex_target` is
+/// per position of the reference's source.
+pub fn compute_input(input: &Reference, opts: &StatsOptions) -> MeshStats {
+    let (welded, origin) = input.welded();
+    let targets = welded_targets(opts.vertex_target, input.source.positions.len(), origin);
+    let own = opts.features.map(|fo| input.measured_features(&fo));
+    compute_welded(
+        welded,
+        &StatsOptions {
+            reference: None,
+            reference_index: None,
+            prepared: None,
+            vertex_target: targets.as_deref(),
+            ..*opts
+        },
+        own.as_deref(),
+    )
+}
+
+/// Per-position targets carried to the welded positions (`origin` maps
+/// each welded position to the position it came from); ignored when their
+/// count is not `positions`.
+fn welded_targets(targets: Option<&[f64]>, positions: usize, origin: &[u32]) -> Option<Vec<f64>> {
+    targets
+        .filter(|t| t.len() == positions)
+        .map(|t| origin.iter().map(|&i| t[i as usize]).collect())
+}
+
+/// [`compute`] on a mesh that is already welded; `own_features` are the
+/// mesh's features for `opts.features`, when already detected.
+fn compute_welded(
+    mesh: &TriMesh,
+    opts: &StatsOptions,
+    own_features: Option<&FeatureSet>,
+) -> MeshStats {
     let pos = &mesh.positions;
     let nv = pos.len();
     let valid: Vec<[u32; 3]>;
@@ -257,10 +304,12 @@ fn compute_welded(mesh: &TriMesh, opts: &StatsOptions) -> MeshStats {
 
     // --- features ---------------------------------------------------------------
     let features = opts.features.map(|fo| {
+        let reference_features = opts.prepared.map(|r| r.measured_features(&fo));
         features::feature_stats(
             mesh,
             &fo,
-            opts.reference,
+            own_features,
+            opts.reference.map(|r| (r, reference_features.as_deref())),
             edge_length.as_ref().map(|e| e.target),
         )
     });

@@ -119,6 +119,22 @@ pub fn sharp_edge_distance(
     )
 }
 
+/// [`sharp_edge_distance`] with the input's sharp edges already found.
+pub fn sharp_edge_distance_of(
+    input: &TriMesh,
+    sharp: &[[u32; 2]],
+    output: &TriMesh,
+    step: f64,
+) -> Option<PolylineDistance> {
+    polyline_distance(
+        &input.positions,
+        sharp,
+        step,
+        &output.positions,
+        &mesh_edges(output),
+    )
+}
+
 /// The bench's `boundary` metric before dividing by L: distances from the
 /// `input`'s boundary edges, sampled every ≤ `step`, to the nearest boundary
 /// edge of `output`. `None` when the input is closed.

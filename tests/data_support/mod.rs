@@ -36,7 +36,7 @@ pub fn load(name: &str) -> LoadedInput {
 /// The repaired half-edge mesh of [`load`].
 #[allow(dead_code)]
 pub fn mesh(name: &str) -> Mesh {
-    load(name).mesh
+    load(name).mesh.clone()
 }
 
 /// The triangles of an OBJ file with only `v x y z` and `f a b c` lines

@@ -1,0 +1,117 @@
+//! The per-job reference: the input as read, the repaired half-edge mesh and
+//! its triangles, the spatial index over them, the welded view that the
+//! statistics measure, and the input's measured feature set. A job builds it
+//! once; the remesher and the statistics both read it, so no part of the
+//! input is parsed, welded, indexed or detected twice.
+//!
+//! The derived parts are built on first use (thread-safely), because not
+//! every caller needs every part: the remesher needs the index but not the
+//! welded view, a statistics-only run the reverse.
+
+use std::sync::{Arc, Mutex, OnceLock};
+
+use crate::bvh::SurfaceIndex;
+use crate::features::{detect_features, FeatureOptions, FeatureSet};
+use crate::mesh::{BuildError, Mesh, RepairReport};
+use crate::trimesh::TriMesh;
+
+/// The input of a job, built once and shared.
+pub struct Reference {
+    /// The triangles as read, before repair.
+    pub source: TriMesh,
+    /// The half-edge mesh after repair, compact (no deleted elements).
+    pub mesh: Mesh,
+    /// What the repair changed.
+    pub repairs: RepairReport,
+    surface: OnceLock<TriMesh>,
+    index: OnceLock<Arc<SurfaceIndex>>,
+    welded: OnceLock<(TriMesh, Vec<u32>)>,
+    /// The last measured feature set and the options it was detected with:
+    /// a job measures the input and the output's fidelity with one set of
+    /// options, so one entry serves both.
+    features: Mutex<Option<(FeatureOptions, Arc<FeatureSet>)>>,
+}
+
+impl Reference {
+    /// Repairs `source` into a half-edge mesh and keeps both.
+    pub fn new(source: TriMesh) -> Result<Self, BuildError> {
+        let (mesh, repairs) = Mesh::from_trimesh(&source)?;
+        Ok(Self::from_parts(source, mesh, repairs))
+    }
+
+    /// A reference from an already repaired `mesh` whose source is its own
+    /// triangles (for callers that start from a [`Mesh`]).
+    pub fn from_mesh(mesh: Mesh) -> Self {
+        let mut mesh = mesh;
+        if mesh.has_garbage() {
+            mesh.compact();
+        }
+        let surface = mesh.to_trimesh();
+        let r = Self::from_parts(surface.clone(), mesh, RepairReport::default());
+        let _ = r.surface.set(surface);
+        r
+    }
+
+    /// A reference from its parts: `mesh` repaired from `source` with
+    /// `repairs`.
+    pub fn from_parts(source: TriMesh, mut mesh: Mesh, repairs: RepairReport) -> Self {
+        if mesh.has_garbage() {
+            mesh.compact();
+        }
+        Self {
+            source,
+            mesh,
+            repairs,
+            surface: OnceLock::new(),
+            index: OnceLock::new(),
+            welded: OnceLock::new(),
+            features: Mutex::new(None),
+        }
+    }
+
+    /// The repaired triangles ([`Mesh::to_trimesh`] of [`Self::mesh`]): the
+    /// surface that projection and the distance statistics query.
+    pub fn surface(&self) -> &TriMesh {
+        self.surface.get_or_init(|| self.mesh.to_trimesh())
+    }
+
+    /// The closest-point index over [`Self::surface`].
+    pub fn index(&self) -> &Arc<SurfaceIndex> {
+        self.index
+            .get_or_init(|| Arc::new(SurfaceIndex::from_trimesh(self.surface())))
+    }
+
+    /// The source with bit-identical positions merged and degenerate or
+    /// repeated faces dropped ([`TriMesh::welded`]), and for each welded
+    /// position the source position it came from: the input as the
+    /// statistics (and the benchmark) see it.
+    pub fn welded(&self) -> (&TriMesh, &[u32]) {
+        let (m, origin) = self.welded.get_or_init(|| self.source.welded());
+        (m, origin)
+    }
+
+    /// The features of the welded view detected with `opts`, detected once
+    /// per distinct options.
+    pub fn measured_features(&self, opts: &FeatureOptions) -> Arc<FeatureSet> {
+        let mut cache = self.features.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some((o, fs)) = cache.as_ref() {
+            if o == opts {
+                return Arc::clone(fs);
+            }
+        }
+        let fs = Arc::new(detect_features(self.welded().0, opts));
+        *cache = Some((*opts, Arc::clone(&fs)));
+        fs
+    }
+}
+
+impl std::fmt::Debug for Reference {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Reference")
+            .field("source_vertices", &self.source.positions.len())
+            .field("source_faces", &self.source.triangles.len())
+            .field("faces", &self.mesh.face_count())
+            .field("repairs", &self.repairs)
+            .finish_non_exhaustive()
+    }
+}

@@ -105,6 +105,25 @@ impl Reference {
     }
 }
 
+impl Reference {
+    /// An estimate of the heap bytes of the source and the repaired mesh
+    /// (the parts every job builds; the derived parts come later, in the
+    /// worker): what a queued input costs to keep.
+    pub fn heap_bytes(&self) -> usize {
+        let s = &self.source;
+        let source = s.positions.len() * 24
+            + s.normals.len() * 24
+            + s.triangles.len() * 12
+            + s.face_labels.len() * 4;
+        // Per vertex: position, outgoing half-edge, deleted flag; per edge:
+        // two half-edges (target, next, prev, face), deleted flag and
+        // feature flags; per face: half-edge, deleted flag, label.
+        let m = &self.mesh;
+        let mesh = m.vertex_capacity() * 29 + m.edge_capacity() * 34 + m.face_capacity() * 9;
+        source + mesh
+    }
+}
+
 impl std::fmt::Debug for Reference {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Reference")

@@ -241,3 +241,38 @@ fn health_readiness_and_openapi_are_served() {
     let r = s.client.put(s.url("/v1/jobs")).send().unwrap();
     assert_problem(r, 405, None);
 }
+
+/// Submit parses the upload and hands it to the worker; with no budget for
+/// held inputs the worker parses the stored upload again. Both give the
+/// same result and the same statistics.
+#[test]
+fn the_worker_reuses_the_parsed_upload_or_parses_it_again_with_the_same_result() {
+    let mut results = Vec::new();
+    for budget in [isoremesh::service::config::DEFAULT_MAX_PREPARED_BYTES, 0] {
+        let dir = tempfile::tempdir().unwrap();
+        let mut cfg = config(dir.path());
+        cfg.max_prepared_bytes = budget;
+        let s = Server::start(cfg);
+        let id = s.submit_ok(
+            "spot.obj",
+            data("spot.obj"),
+            json!({"target_edge_ratio": 0.02, "iterations": 3}),
+        );
+        let job = s.wait_finished(&id);
+        assert_eq!(job["status"], "succeeded", "{job}");
+        results.push((job["result"]["etag"].clone(), job["stats"].clone()));
+        let metrics = s.get("/metrics").text().unwrap();
+        let how = if budget > 0 { "reused" } else { "parsed" };
+        assert!(
+            metrics.contains(&format!("isoremesh_job_inputs_total{{how=\"{how}\"}} 1")),
+            "{metrics}"
+        );
+        assert!(
+            metrics.contains("isoremesh_prepared_input_bytes 0"),
+            "{metrics}"
+        );
+        s.stop();
+    }
+    assert_eq!(results[0].0, results[1].0, "the result files differ");
+    assert_eq!(results[0].1, results[1].1, "the statistics differ");
+}

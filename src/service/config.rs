@@ -21,6 +21,8 @@ pub const DEFAULT_UPLOAD_TIMEOUT_SECS: u64 = 300;
 pub const DEFAULT_MAX_INPUT_TRIANGLES: u64 = 20_000_000;
 /// Default largest estimated output, in triangles.
 pub const DEFAULT_MAX_OUTPUT_TRIANGLES: u64 = 20_000_000;
+/// Default memory budget of the parsed inputs kept for queued jobs: 1 GiB.
+pub const DEFAULT_MAX_PREPARED_BYTES: u64 = 1 << 30;
 /// Default wall-time limit of one job.
 pub const DEFAULT_JOB_TIMEOUT_SECS: u64 = 3600;
 /// Default lifetime of a finished job and its result.
@@ -58,6 +60,11 @@ pub struct ServiceConfig {
     /// Wall-time limit of one job in seconds; a job past it fails.
     #[arg(long, env = "ISOREMESH_JOB_TIMEOUT_SECS", default_value_t = DEFAULT_JOB_TIMEOUT_SECS)]
     pub job_timeout_secs: u64,
+    /// Bytes of parsed inputs kept in memory for queued jobs, so that a
+    /// worker need not parse an upload again; past it a worker parses the
+    /// stored upload.
+    #[arg(long, env = "ISOREMESH_MAX_PREPARED_BYTES", default_value_t = DEFAULT_MAX_PREPARED_BYTES)]
+    pub max_prepared_bytes: u64,
     /// Seconds a finished job and its result are kept before they expire.
     #[arg(long, env = "ISOREMESH_RESULT_TTL_SECS", default_value_t = DEFAULT_RESULT_TTL_SECS)]
     pub result_ttl_secs: u64,
@@ -94,6 +101,7 @@ impl ServiceConfig {
             max_input_triangles: DEFAULT_MAX_INPUT_TRIANGLES,
             max_output_triangles: DEFAULT_MAX_OUTPUT_TRIANGLES,
             job_timeout_secs: DEFAULT_JOB_TIMEOUT_SECS,
+            max_prepared_bytes: DEFAULT_MAX_PREPARED_BYTES,
             result_ttl_secs: DEFAULT_RESULT_TTL_SECS,
             shutdown_grace_secs: DEFAULT_SHUTDOWN_GRACE_SECS,
             log_json: false,

@@ -21,7 +21,7 @@ use super::server::{AppState, Service};
 use super::store::is_job_id;
 use super::upload::{read_upload, Upload};
 use crate::io::{Format, ReadOptions};
-use crate::pipeline;
+use crate::pipeline::{self, LoadedInput};
 
 /// The contract, served as is.
 pub const OPENAPI_YAML: &str = include_str!("../../openapi.yaml");
@@ -73,6 +73,8 @@ fn job_response(status: StatusCode, job: &Job, location: bool) -> Response {
 struct Checked {
     params: JobParams,
     input: InputInfo,
+    /// The parsed input, for the worker.
+    loaded: LoadedInput,
 }
 
 /// Parses the params and the mesh and checks the output estimate.
@@ -100,7 +102,8 @@ fn check_upload(svc: &Service, up: &Upload) -> Result<Checked, Problem> {
     let (sum, edges) = mesh
         .edges()
         .fold((0.0, 0u64), |(s, n), e| (s + mesh.edge_length(e), n + 1));
-    let tm = mesh.to_trimesh();
+    // The repaired surface, kept in the reference for the engine.
+    let tm = loaded.surface();
     let geometry = InputGeometry {
         area: tm.area(),
         bbox_diagonal: tm.bbox_diagonal(),
@@ -143,6 +146,7 @@ fn check_upload(svc: &Service, up: &Upload) -> Result<Checked, Problem> {
             buffers: up.buffers.iter().map(|(u, _)| u.clone()).collect(),
             repairs: loaded.repairs,
         },
+        loaded,
     })
 }
 
@@ -239,6 +243,9 @@ pub async fn submit(State(svc): State<AppState>, req: Request) -> Result<Respons
         result_expired: false,
     };
     let job = Arc::new(Job::new(record.clone()));
+    if let Some(prepared) = svc.prepared.hold(checked.loaded) {
+        job.set_prepared(prepared);
+    }
     {
         let svc = Arc::clone(&svc);
         blocking(move || svc.store.create_job(&record, &upload.mesh, &upload.buffers))
@@ -288,6 +295,7 @@ pub async fn cancel(
     match before {
         JobStatus::Queued => {
             svc.queue.remove(&id);
+            drop(job.take_prepared());
             let s = Arc::clone(&svc);
             let j = Arc::clone(&job);
             blocking(move || s.persist(&j)).await?;

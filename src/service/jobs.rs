@@ -15,6 +15,7 @@ use std::time::{SystemTime, UNIX_EPOCH};
 use serde::{Deserialize, Serialize};
 
 use super::params::{InputGeometry, JobParams};
+use super::prepared::Prepared;
 use super::problem::Problem;
 use crate::io::Format;
 use crate::mesh::RepairReport;
@@ -239,6 +240,8 @@ pub struct Job {
     deleted: AtomicBool,
     /// Serialises writes of `job.json` so the last write holds the last state.
     pub persist_lock: Mutex<()>,
+    /// The input as submit parsed it, until the worker takes it.
+    prepared: Mutex<Option<Prepared>>,
 }
 
 fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
@@ -257,6 +260,7 @@ impl Job {
             cancel: AtomicU8::new(CancelReason::None as u8),
             deleted: AtomicBool::new(false),
             persist_lock: Mutex::new(()),
+            prepared: Mutex::new(None),
         }
     }
 
@@ -282,6 +286,17 @@ impl Job {
     /// The current status.
     pub fn status(&self) -> JobStatus {
         lock(&self.record).status
+    }
+
+    /// Keeps the input that submit parsed, for the worker.
+    pub fn set_prepared(&self, input: Prepared) {
+        *lock(&self.prepared) = Some(input);
+    }
+
+    /// Takes the input that submit parsed, if it is still held (not after a
+    /// restart, nor when it did not fit in the budget).
+    pub fn take_prepared(&self) -> Option<Prepared> {
+        lock(&self.prepared).take()
     }
 
     /// Records the latest progress (called by the worker's observer).

@@ -22,6 +22,9 @@ pub struct Metrics {
     duration_buckets: [AtomicU64; DURATION_BUCKETS.len()],
     duration_count: AtomicU64,
     duration_sum_micros: AtomicU64,
+    /// Runs that used the input as submit parsed it, and runs that parsed
+    /// the stored upload.
+    inputs: [AtomicU64; 2],
 }
 
 /// State read at scrape time.
@@ -37,6 +40,8 @@ pub struct Gauges {
     pub workers: usize,
     /// Jobs per status, in [`super::jobs::JobStatus::ALL`] order.
     pub jobs: [u64; 5],
+    /// Bytes of parsed inputs held for queued jobs.
+    pub prepared_bytes: u64,
 }
 
 /// How a run ended, for the finished counter.
@@ -59,6 +64,12 @@ impl Metrics {
     /// Counts a submission turned away because the queue was full.
     pub fn job_rejected(&self) {
         self.rejected.fetch_add(1, Ordering::Relaxed);
+    }
+
+    /// Counts a run's input: `reused` when the worker took the input that
+    /// submit parsed, otherwise it parsed the stored upload.
+    pub fn input_loaded(&self, reused: bool) {
+        self.inputs[usize::from(!reused)].fetch_add(1, Ordering::Relaxed);
     }
 
     /// Records a finished run of `seconds` with its triangle counts.
@@ -110,6 +121,23 @@ impl Metrics {
             "gauge",
             "Workers remeshing now.",
             &one(g.workers_busy.to_string()),
+        );
+        metric(
+            "isoremesh_prepared_input_bytes",
+            "gauge",
+            "Bytes of parsed inputs held for queued jobs.",
+            &one(g.prepared_bytes.to_string()),
+        );
+        let inputs: Vec<_> = ["reused", "parsed"]
+            .iter()
+            .zip(&self.inputs)
+            .map(|(how, n)| (format!("{{how=\"{how}\"}}"), ld(n).to_string()))
+            .collect();
+        metric(
+            "isoremesh_job_inputs_total",
+            "counter",
+            "Job runs by how they got their input: reused from submit, or parsed from the stored upload.",
+            &inputs,
         );
         let states: Vec<_> = super::jobs::JobStatus::ALL
             .iter()
@@ -189,6 +217,7 @@ mod tests {
             workers_busy: 1,
             workers: 2,
             jobs: [1, 2, 3, 4, 5],
+            prepared_bytes: 7,
         });
         assert!(text.contains("isoremesh_job_duration_seconds_bucket{le=\"0.25\"} 0"));
         assert!(text.contains("isoremesh_job_duration_seconds_bucket{le=\"0.5\"} 1"));
@@ -198,5 +227,30 @@ mod tests {
         assert!(text.contains("isoremesh_triangles_in_total 15"));
         assert!(text.contains("isoremesh_jobs{status=\"failed\"} 4"));
         assert!(text.contains("isoremesh_queue_depth 2"));
+        assert!(text.contains("isoremesh_prepared_input_bytes 7"));
+    }
+
+    #[test]
+    fn inputs_are_counted_by_how_they_were_loaded() {
+        let m = Metrics::default();
+        m.input_loaded(true);
+        m.input_loaded(true);
+        m.input_loaded(false);
+        let text = m.render(&Gauges {
+            queue_depth: 0,
+            queue_capacity: 1,
+            workers_busy: 0,
+            workers: 1,
+            jobs: [0; 5],
+            prepared_bytes: 0,
+        });
+        assert!(
+            text.contains("isoremesh_job_inputs_total{how=\"reused\"} 2"),
+            "{text}"
+        );
+        assert!(
+            text.contains("isoremesh_job_inputs_total{how=\"parsed\"} 1"),
+            "{text}"
+        );
     }
 }

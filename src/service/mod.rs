@@ -17,6 +17,7 @@
 //! | [`upload`] | reading a submission under size and time limits |
 //! | [`params`] | job parameters → [`crate::remesh::RemeshOptions`], the output estimate |
 //! | [`dto`] | the JSON documents |
+//! | [`prepared`] | parsed inputs handed from submit to the worker, under a byte budget |
 //! | [`jobs`] | job records, states, the registry |
 //! | [`queue`] | bounded queue, worker threads, running a job |
 //! | [`store`] | the data directory, atomic writes |
@@ -31,6 +32,7 @@ pub mod handlers;
 pub mod jobs;
 pub mod metrics;
 pub mod params;
+pub mod prepared;
 pub mod problem;
 pub mod queue;
 pub mod routes;

@@ -18,6 +18,7 @@ use sha2::{Digest, Sha256};
 use super::config::ServiceConfig;
 use super::jobs::{now_ms, CancelReason, Job, JobRecord, Registry, ResultInfo};
 use super::metrics::{Metrics, Outcome};
+use super::prepared::Prepared;
 use super::problem::{Problem, ProblemKind};
 use super::store::Store;
 use crate::io::ReadOptions;
@@ -219,21 +220,30 @@ fn execute(
     ctx: &WorkerContext,
     job: &Job,
     rec: &JobRecord,
+    prepared: Option<Prepared>,
     deadline: Instant,
 ) -> Result<Done, RunError> {
     let cfg = &ctx.config;
-    let (bytes, external_buffers) = ctx.store.read_input(rec).map_err(RunError::Storage)?;
-    let read = ReadOptions {
-        external_buffers,
-        max_triangles: cfg.max_input_triangles,
+    // The input as submit parsed it, or (after a restart, or past the
+    // budget of held inputs) the stored upload parsed again, which gives
+    // the same input.
+    ctx.metrics.input_loaded(prepared.is_some());
+    let input = match prepared {
+        Some(p) => p.input().clone(),
+        None => {
+            let (bytes, external_buffers) = ctx.store.read_input(rec).map_err(RunError::Storage)?;
+            let read = ReadOptions {
+                external_buffers,
+                max_triangles: cfg.max_input_triangles,
+            };
+            pipeline::load(
+                &bytes,
+                rec.input.file_name.as_deref(),
+                Some(rec.input.format),
+                &read,
+            )?
+        }
     };
-    let input = pipeline::load(
-        &bytes,
-        rec.input.file_name.as_deref(),
-        Some(rec.input.format),
-        &read,
-    )?;
-    drop(bytes);
     let options = rec
         .params
         .to_options(cfg.threads_per_job(), cfg.max_output_triangles)
@@ -289,6 +299,8 @@ pub fn catch_job_panic<T>(f: impl FnOnce() -> T) -> Result<T, Problem> {
 
 /// Runs one job from start to a final (or re-queued) state.
 pub fn run_job(ctx: &WorkerContext, job: &Job) {
+    // Taken whatever follows, so that its memory returns to the budget.
+    let prepared = job.take_prepared();
     let started = job.update(|r| r.start(now_ms()).then(|| r.clone()));
     let Some(rec) = started else { return };
     let span = tracing::info_span!(
@@ -305,7 +317,7 @@ pub fn run_job(ctx: &WorkerContext, job: &Job) {
     );
     let t0 = Instant::now();
     let deadline = t0 + ctx.config.job_timeout();
-    let outcome = catch_job_panic(|| execute(ctx, job, &rec, deadline));
+    let outcome = catch_job_panic(|| execute(ctx, job, &rec, prepared, deadline));
     let seconds = t0.elapsed().as_secs_f64();
     let now = now_ms();
     let ttl = ctx.config.result_ttl_secs * 1000;

@@ -12,6 +12,7 @@ use std::time::Duration;
 use super::config::{self, ServiceConfig};
 use super::jobs::{now_ms, CancelReason, Job, JobStatus, Registry};
 use super::metrics::{Gauges, Metrics};
+use super::prepared::PreparedBudget;
 use super::queue::{self, JobQueue, WorkerContext};
 use super::routes::app;
 use super::store::Store;
@@ -64,6 +65,8 @@ pub struct Service {
     pub idempotency_gate: tokio::sync::Mutex<()>,
     /// Bounds how many uploads are parsed at once (parsing is CPU and memory).
     pub parse_permits: tokio::sync::Semaphore,
+    /// The memory budget of the parsed inputs handed to the workers.
+    pub prepared: Arc<PreparedBudget>,
     shutting_down: AtomicBool,
     workers: Mutex<Vec<JoinHandle<()>>>,
 }
@@ -81,6 +84,7 @@ impl Service {
         let svc = Arc::new(Service {
             queue: JobQueue::new(config.queue_capacity),
             parse_permits: tokio::sync::Semaphore::new(workers.max(2)),
+            prepared: PreparedBudget::new(config.max_prepared_bytes),
             config,
             store,
             jobs: Arc::new(Registry::default()),
@@ -241,6 +245,7 @@ impl Service {
             workers_busy: self.busy.load(Ordering::SeqCst),
             workers: self.config.worker_count(),
             jobs: self.jobs.count_by_status(),
+            prepared_bytes: self.prepared.held(),
         }
     }
 }

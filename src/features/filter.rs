@@ -3,6 +3,7 @@
 //! that only wiggle next to another corner.
 
 use super::*;
+use crate::bvh::closest_point_on_segment;
 
 /// Which feature edges survive the small-crease filter of
 /// [`FeatureOptions::min_crease_length`]. A crease smaller than that cannot
@@ -267,7 +268,7 @@ pub(crate) fn twin_creases_kept(
             let p = pos(v);
             b.vertices
                 .windows(2)
-                .any(|s| closest_on_segment(pos(s[0]), pos(s[1]), p).2 <= gap * gap)
+                .any(|s| closest_point_on_segment(p, pos(s[0]), pos(s[1])).2 <= gap * gap)
         })
     };
     let mut i = 0;

@@ -33,16 +33,16 @@
 
 use glam::DVec3;
 
+use crate::bvh::SegmentIndex;
 use crate::trimesh::TriMesh;
 
 pub(crate) mod anchors;
 mod detect;
 mod filter;
-pub(crate) mod lines;
+mod lines;
 
 use detect::*;
 use filter::*;
-use lines::*;
 
 /// Default dihedral angle above which an interior edge is a crease, degrees.
 ///
@@ -176,8 +176,6 @@ pub struct FeatureLine {
     pub vertices: Vec<u32>,
     /// Offset of this line's first point in the set's point array.
     point_offset: u32,
-    /// Root of this line's segment tree in the set's node arena.
-    root: u32,
     /// Union of the reasons of the line's edges.
     flags: EdgeFlags,
 }
@@ -233,7 +231,8 @@ pub struct FeatureSet {
     corners: Vec<u32>,
     lines: Vec<FeatureLine>,
     points: Vec<DVec3>,
-    tree: SegTree,
+    /// Per line, the index of its segments.
+    line_trees: Vec<SegmentIndex>,
 }
 
 /// Finds the features of `mesh`. Robust to unreferenced vertices, triangles
@@ -324,7 +323,6 @@ pub fn detect_features(mesh: &TriMesh, opts: &FeatureOptions) -> FeatureSet {
         lines.push(FeatureLine {
             vertices: verts,
             point_offset,
-            root: 0,
             flags: EdgeFlags::default(),
         });
     };
@@ -347,13 +345,13 @@ pub fn detect_features(mesh: &TriMesh, opts: &FeatureOptions) -> FeatureSet {
     for (e, &[l, _]) in edge_segment.iter().enumerate() {
         lines[l as usize].flags |= edge_flags[e];
     }
-    let mut tree = SegTree::default();
-    for line in &mut lines {
-        let pts = &points[line.point_offset as usize..][..line.vertices.len()];
-        line.root = tree.build(line.vertices.len() as u32 - 1, |s| {
-            [pts[s as usize], pts[s as usize + 1]]
-        });
-    }
+    let line_trees = lines
+        .iter()
+        .map(|line| {
+            let pts = &points[line.point_offset as usize..][..line.vertices.len()];
+            SegmentIndex::new(pts.len() - 1, |s| [pts[s], pts[s + 1]])
+        })
+        .collect();
 
     FeatureSet {
         edges,
@@ -366,7 +364,7 @@ pub fn detect_features(mesh: &TriMesh, opts: &FeatureOptions) -> FeatureSet {
         corners,
         lines,
         points,
-        tree,
+        line_trees,
     }
 }
 
@@ -424,6 +422,7 @@ pub fn sharp_edges(mesh: &TriMesh, angle_deg: f64) -> Vec<[u32; 2]> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::bvh::{closest_point_on_segment, SegmentPoint};
     use crate::shapes;
 
     /// Two crease chains between junctions J1 (vertex 0) and J2 (vertex 1),
@@ -524,11 +523,11 @@ mod tests {
     #[test]
     fn segment_closest_point_returns_exact_end_points() {
         let (a, b) = (DVec3::new(0.1, 0.2, 0.3), DVec3::new(1.7, -0.4, 2.9));
-        let (t, q, _) = closest_on_segment(a, b, b + DVec3::new(5.0, 0.0, 5.0));
+        let (t, q, _) = closest_point_on_segment(b + DVec3::new(5.0, 0.0, 5.0), a, b);
         assert_eq!((t, q), (1.0, b));
-        let (t, q, _) = closest_on_segment(a, b, a - (b - a));
+        let (t, q, _) = closest_point_on_segment(a - (b - a), a, b);
         assert_eq!((t, q), (0.0, a));
-        let (t, q, d2) = closest_on_segment(a, a, DVec3::ONE);
+        let (t, q, d2) = closest_point_on_segment(DVec3::ONE, a, a);
         assert_eq!((t, q), (0.0, a));
         assert!((d2 - (DVec3::ONE - a).length_squared()).abs() < 1e-15);
     }
@@ -582,15 +581,14 @@ mod tests {
     }
 
     #[test]
-    fn seg_tree_matches_brute_force_on_an_edge_soup() {
+    fn segment_index_matches_brute_force_on_an_edge_soup() {
         let m = shapes::icosphere(2);
         let edges = mesh_edges(&m);
         let seg = |s: u32| {
             let [a, b] = edges[s as usize];
             [m.positions[a as usize], m.positions[b as usize]]
         };
-        let mut tree = SegTree::default();
-        let root = tree.build(edges.len() as u32, seg);
+        let tree = SegmentIndex::new(edges.len(), |s| seg(s as u32));
         let mut x = 12345u64;
         let mut rnd = || {
             x ^= x << 13;
@@ -600,17 +598,19 @@ mod tests {
         };
         for _ in 0..500 {
             let p = DVec3::new(rnd(), rnd(), rnd());
-            let got = tree.nearest(root, p, Candidate::NONE, seg);
-            let mut want = Candidate::NONE;
-            for s in 0..edges.len() as u32 {
+            let got = tree.closest(p).unwrap();
+            let mut want = SegmentPoint::on_segment(p, 0, seg(0)[0], seg(0)[1]);
+            for s in 1..edges.len() as u32 {
                 let [a, b] = seg(s);
-                let (t, q, d2) = closest_on_segment(a, b, p);
-                let c = Candidate { d2, item: s, t, q };
+                let c = SegmentPoint::on_segment(p, s, a, b);
                 if c.better_than(&want) {
                     want = c;
                 }
             }
-            assert_eq!((got.item, got.d2), (want.item, want.d2));
+            assert_eq!(
+                (got.segment, got.distance_squared),
+                (want.segment, want.distance_squared)
+            );
         }
     }
 }

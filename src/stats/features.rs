@@ -4,12 +4,11 @@
 //! whether every feature edge lies on a reference feature line and every
 //! reference feature line is followed by feature edges).
 
-use std::collections::HashMap;
-
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
 use super::polyline;
+use crate::bvh::PointIndex;
 use crate::features::{detect_features, EdgeFlags, FeatureOptions, FeatureSet};
 use crate::trimesh::TriMesh;
 
@@ -184,11 +183,11 @@ fn fidelity(
         .count() as u64;
 
     let corner_tol = CORNER_TOLERANCE * l;
-    let grid = VertexGrid::new(pos, corner_tol);
+    let vertices = PointIndex::new(pos);
     let corners_kept = rfs
         .corners()
         .iter()
-        .filter(|&&c| grid.any_within(pos, reference.positions[c as usize], corner_tol))
+        .filter(|&&c| vertices.any_within(reference.positions[c as usize], corner_tol))
         .count() as u64;
 
     let n = fs.edges().len();
@@ -205,55 +204,5 @@ fn fidelity(
         max_offset_over_l: max_offset.map(|d| d / l),
         reference_samples: samples.len() as u64,
         uncovered_samples: uncovered,
-    }
-}
-
-/// Vertices hashed into cubic cells at least as wide as the search radius,
-/// so a radius query looks at the 27 cells around the query point.
-struct VertexGrid {
-    cell: f64,
-    cells: HashMap<[i64; 3], Vec<u32>>,
-}
-
-impl VertexGrid {
-    fn new(pos: &[DVec3], radius: f64) -> Self {
-        // Wider cells than the radius keep the cell coordinates small.
-        let cell = if radius > 0.0 && radius.is_finite() {
-            radius * 1024.0
-        } else {
-            1.0
-        };
-        let mut cells: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
-        for (i, &p) in pos.iter().enumerate() {
-            cells.entry(Self::key(p, cell)).or_default().push(i as u32);
-        }
-        Self { cell, cells }
-    }
-
-    fn key(p: DVec3, cell: f64) -> [i64; 3] {
-        // `as` saturates, so non-finite coordinates land in extreme cells.
-        let q = (p / cell).floor();
-        [q.x as i64, q.y as i64, q.z as i64]
-    }
-
-    fn any_within(&self, pos: &[DVec3], p: DVec3, radius: f64) -> bool {
-        let [x, y, z] = Self::key(p, self.cell);
-        for dx in -1..=1i64 {
-            for dy in -1..=1i64 {
-                for dz in -1..=1i64 {
-                    let k = [
-                        x.saturating_add(dx),
-                        y.saturating_add(dy),
-                        z.saturating_add(dz),
-                    ];
-                    if let Some(vs) = self.cells.get(&k) {
-                        if vs.iter().any(|&v| pos[v as usize].distance(p) <= radius) {
-                            return true;
-                        }
-                    }
-                }
-            }
-        }
-        false
     }
 }

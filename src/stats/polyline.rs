@@ -5,7 +5,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::features::lines::{lerp_exact, Candidate, SegTree};
+use crate::bvh::{lerp_exact, SegmentIndex};
 use crate::features::{boundary_edges, mesh_edges, sharp_edges};
 use crate::trimesh::TriMesh;
 
@@ -88,15 +88,13 @@ pub fn point_edge_distances(
     if to.is_empty() {
         return vec![f64::INFINITY; queries.len()];
     }
-    let seg = |s: u32| {
-        let [a, b] = to[s as usize];
-        [to_points[a as usize], to_points[b as usize]]
-    };
-    let mut tree = SegTree::default();
-    let root = tree.build(to.len() as u32, seg);
+    let tree = SegmentIndex::new(to.len(), |s| to[s].map(|v| to_points[v as usize]));
     queries
         .par_iter()
-        .map(|&q| tree.nearest(root, q, Candidate::NONE, seg).d2.sqrt())
+        .map(|&q| {
+            tree.closest(q)
+                .map_or(f64::INFINITY, |c| c.distance_squared.sqrt())
+        })
         .collect()
 }
 

@@ -53,6 +53,19 @@ impl PointIndex {
             .any_within(p, radius, |slot| self.points[slot].distance(p) <= radius)
     }
 
+    /// Calls `f(index)` for every point `v` with `v.distance(p) <= radius`
+    /// (that exact f64 test), in no particular order. Nothing for a
+    /// non-finite `p` or a negative or NaN `radius`.
+    #[inline]
+    pub fn for_each_within(&self, p: DVec3, radius: f64, mut f: impl FnMut(u32)) {
+        self.tree.any_within(p, radius, |slot| {
+            if self.points[slot].distance(p) <= radius {
+                f(self.tree.primitive(slot));
+            }
+            false
+        });
+    }
+
     /// The point nearest to `p` and its squared distance, ties to the lowest
     /// index. `None` when there is no point or `p` is not finite.
     #[inline]
@@ -86,5 +99,10 @@ mod tests {
         assert_eq!(idx.closest(DVec3::ZERO), Some((0, 1.0)));
         assert_eq!(idx.closest(DVec3::new(2.0, 0.0, 0.0)), Some((0, 1.0)));
         assert!(PointIndex::default().closest(DVec3::ZERO).is_none());
+        let mut found = Vec::new();
+        idx.for_each_within(DVec3::new(0.5, 0.0, 0.0), 0.5, |i| found.push(i));
+        found.sort_unstable();
+        assert_eq!(found, [0, 3]);
+        idx.for_each_within(DVec3::ZERO, f64::NAN, |_| unreachable!());
     }
 }

@@ -183,12 +183,19 @@ fn fidelity(
         .count() as u64;
 
     let corner_tol = CORNER_TOLERANCE * l;
-    let vertices = PointIndex::new(pos);
-    let corners_kept = rfs
+    // The index holds the few reference corners and every mesh vertex asks
+    // it: cheaper than indexing all vertices for a handful of questions.
+    let corner_points: Vec<DVec3> = rfs
         .corners()
         .iter()
-        .filter(|&&c| vertices.any_within(reference.positions[c as usize], corner_tol))
-        .count() as u64;
+        .map(|&c| reference.positions[c as usize])
+        .collect();
+    let corners = PointIndex::new(&corner_points);
+    let mut kept = vec![false; corner_points.len()];
+    for &v in pos {
+        corners.for_each_within(v, corner_tol, |c| kept[c as usize] = true);
+    }
+    let corners_kept = kept.iter().filter(|&&k| k).count() as u64;
 
     let n = fs.edges().len();
     FeatureFidelity {

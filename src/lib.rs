@@ -24,6 +24,7 @@
 //! The geometry core above is pure and synchronous: no async runtime and no
 //! filesystem access. The `service` feature adds the HTTP layer on top.
 
+pub mod appearance;
 pub mod bvh;
 pub mod curvature;
 pub mod features;
@@ -39,6 +40,7 @@ pub mod shapes;
 pub mod sizing;
 pub mod stats;
 pub mod topology;
+pub mod transfer;
 pub mod trimesh;
 
 pub use trimesh::{Label, Material, TriMesh};

@@ -9,10 +9,11 @@ use std::sync::Arc;
 
 use crate::features::FeatureOptions;
 use crate::io::{self, Attribute, Attributes, Format, ReadOptions, WriteOptions};
-use crate::mesh::{BuildError, Mesh, EDGE_FEATURE};
+use crate::mesh::{BuildError, Mesh, EDGE_FEATURE, EDGE_SEAM};
 use crate::reference::Reference;
 use crate::remesh::{self, Observer, RemeshError, RemeshOptions, RemeshReport};
 use crate::stats::{self, Headline, MeshStats, StatsOptions};
+use crate::transfer::split_by_values;
 use crate::trimesh::TriMesh;
 
 /// Area samples per side for the distance statistics of a job: the
@@ -152,7 +153,22 @@ pub fn remesh_only(
             [a.0, b.0]
         })
         .collect();
-    let written = io::with_split_normals(&surface, options.feature_angle, &features);
+    let mut written = io::with_split_normals(&surface, options.feature_angle, &features);
+    if let Some(attrs) = input.source_attributes() {
+        let seams: Vec<[u32; 2]> = out
+            .mesh
+            .edges()
+            .filter(|&e| out.mesh.edge_has_flag(e, EDGE_SEAM))
+            .map(|e| {
+                let [a, b] = out.mesh.edge_vertices(e);
+                [a.0, b.0]
+            })
+            .collect();
+        let values = attrs.sample(&surface, &seams);
+        let has_color = !input.source.attributes.colors.is_empty();
+        written = split_by_values(&written, &values, attrs.layout(), has_color);
+    }
+    written.appearance = input.source.appearance.clone();
     Ok(Remeshed {
         written,
         surface,

@@ -13,6 +13,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 use crate::bvh::SurfaceIndex;
 use crate::features::{detect_features, FeatureOptions, FeatureSet};
 use crate::mesh::{BuildError, Mesh, RepairReport};
+use crate::transfer::SourceAttributes;
 use crate::trimesh::TriMesh;
 
 /// The input of a job, built once and shared.
@@ -26,6 +27,8 @@ pub struct Reference {
     surface: OnceLock<TriMesh>,
     index: OnceLock<Arc<SurfaceIndex>>,
     welded: OnceLock<(TriMesh, Vec<u32>)>,
+    attributes: OnceLock<Option<Arc<SourceAttributes>>>,
+    seams: OnceLock<Vec<[u32; 2]>>,
     /// The last measured feature set and the options it was detected with:
     /// a job measures the input and the output's fidelity with one set of
     /// options, so one entry serves both.
@@ -65,6 +68,8 @@ impl Reference {
             surface: OnceLock::new(),
             index: OnceLock::new(),
             welded: OnceLock::new(),
+            attributes: OnceLock::new(),
+            seams: OnceLock::new(),
             features: Mutex::new(None),
         }
     }
@@ -88,6 +93,24 @@ impl Reference {
     pub fn welded(&self) -> (&TriMesh, &[u32]) {
         let (m, origin) = self.welded.get_or_init(|| self.source.welded());
         (m, origin)
+    }
+
+    /// The source's texture coordinates and colours prepared for transfer
+    /// onto the output; `None` when the source has none.
+    pub fn source_attributes(&self) -> Option<&Arc<SourceAttributes>> {
+        self.attributes
+            .get_or_init(|| SourceAttributes::new(&self.source).map(Arc::new))
+            .as_ref()
+    }
+
+    /// The attribute seams of [`Self::surface`], as vertex pairs: the
+    /// features that the remesher keeps besides creases, boundaries and
+    /// label borders. Empty without attributes.
+    pub fn surface_seams(&self) -> &[[u32; 2]] {
+        self.seams.get_or_init(|| {
+            self.source_attributes()
+                .map_or_else(Vec::new, |a| a.seams_on(self.surface()))
+        })
     }
 
     /// The features of the welded view detected with `opts`, detected once

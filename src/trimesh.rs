@@ -7,9 +7,13 @@
 //! says which glTF primitive, material or OBJ group the face came from. It has
 //! no connectivity; [`crate::mesh::Mesh`] adds that.
 
+use std::sync::Arc;
+
 use glam::DVec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+
+use crate::appearance::{Appearance, VertexAttributes};
 
 /// Bit pattern of a coordinate with −0 folded into +0, so equal values weld.
 #[inline]
@@ -84,6 +88,13 @@ pub struct Material {
     pub emissive_factor: [f32; 3],
     /// Whether back faces are rendered.
     pub double_sided: bool,
+    /// The material object as a glTF document writes it, texture
+    /// references included (their indices point into the mesh's
+    /// [`crate::appearance::Appearance`]), when the source had textures or
+    /// extensions that the factors above do not carry. Writers emit it
+    /// verbatim in place of the factors.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gltf: Option<serde_json::Value>,
 }
 
 impl Default for Material {
@@ -95,6 +106,7 @@ impl Default for Material {
             roughness_factor: 1.0,
             emissive_factor: [0.0, 0.0, 0.0],
             double_sided: false,
+            gltf: None,
         }
     }
 }
@@ -126,6 +138,11 @@ pub struct TriMesh {
     pub face_labels: Vec<u32>,
     /// The label table. May be empty when `face_labels` is empty.
     pub labels: Vec<Label>,
+    /// Per-vertex texture coordinates and colours (empty when absent).
+    pub attributes: VertexAttributes,
+    /// The textures and images that the labels' materials use, shared
+    /// between the copies of a mesh that a job makes.
+    pub appearance: Option<Arc<Appearance>>,
 }
 
 impl TriMesh {
@@ -259,6 +276,7 @@ impl TriMesh {
             normals,
             face_labels,
             labels: self.labels.clone(),
+            ..Default::default()
         };
         (mesh, first)
     }
@@ -318,6 +336,6 @@ impl TriMesh {
         if !self.normals.is_empty() && self.normals.len() != n {
             return Err("normals length differs from the vertex count".into());
         }
-        Ok(())
+        self.attributes.check(n)
     }
 }

@@ -101,6 +101,7 @@ fn two_material_grid() -> TriMesh {
                 roughness_factor: 0.5,
                 emissive_factor: [0.0; 3],
                 double_sided: false,
+                gltf: None,
             }),
         })
         .collect();

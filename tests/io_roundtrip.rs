@@ -160,6 +160,7 @@ fn labelled_mesh() -> TriMesh {
                 roughness_factor: 0.9,
                 emissive_factor: [0.0, 0.0, 0.0],
                 double_sided: false,
+                gltf: None,
             }),
         },
         Label {
@@ -171,6 +172,7 @@ fn labelled_mesh() -> TriMesh {
                 roughness_factor: 0.5,
                 emissive_factor: [2.0, 0.5, 0.0],
                 double_sided: true,
+                gltf: None,
             }),
         },
         Label {
@@ -454,9 +456,29 @@ fn external_buffer_is_used_only_when_provided() {
         "BoxTextured0.bin".into(),
         data_support::bytes("gltf/BoxTextured/BoxTextured0.bin"),
     );
-    let external = io::read(&gltf, Format::Gltf, &opts).unwrap();
-    let embedded = load("gltf/BoxTexturedEmbedded/BoxTextured.gltf");
+    // The image is a part too: without it the error names it.
+    match io::read(&gltf, Format::Gltf, &opts).unwrap_err() {
+        io::IoError::ExternalBuffer { uri } => assert_eq!(uri, "CesiumLogoFlat.png"),
+        e => panic!("expected ExternalBuffer, got {e}"),
+    }
+    let png = data_support::bytes("gltf/BoxTextured/CesiumLogoFlat.png");
+    opts.external_buffers
+        .insert("CesiumLogoFlat.png".into(), png.clone());
+    let mut external = io::read(&gltf, Format::Gltf, &opts).unwrap();
+    let mut embedded = load("gltf/BoxTexturedEmbedded/BoxTextured.gltf");
+    let (ext_look, emb_look) = (
+        external.mesh.appearance.take().unwrap(),
+        embedded.mesh.appearance.take().unwrap(),
+    );
+    assert_eq!(ext_look.images[0].bytes, png);
+    assert_eq!(emb_look.images[0].bytes, png);
+    assert_eq!(
+        ext_look.images[0].uri.as_deref(),
+        Some("CesiumLogoFlat.png")
+    );
+    assert_eq!(ext_look.textures, emb_look.textures);
     assert_eq!(external.mesh, embedded.mesh);
+    assert_eq!(external.mesh.attributes.texcoords.len(), 1);
     assert_eq!(
         external.mesh.labels[0]
             .material

@@ -165,8 +165,14 @@ pub(crate) fn classify_edges(
     mesh: &TriMesh,
     preserve_features: bool,
     feature_angle_deg: f64,
+    seams: &[[u32; 2]],
 ) -> (Vec<[u32; 2]>, Vec<EdgeFlags>) {
     let table = EdgeTable::new(mesh);
+    let mut seam_keys: Vec<u64> = seams
+        .iter()
+        .map(|&[a, b]| (u64::from(a.min(b)) << 32) | u64::from(a.max(b)))
+        .collect();
+    seam_keys.sort_unstable();
     let normals: Vec<DVec3> = if preserve_features {
         mesh.triangles
             .par_iter()
@@ -202,6 +208,13 @@ pub(crate) fn classify_edges(
             .any(|h| mesh.face_label((h.1 / 3) as usize) != label0)
         {
             fl |= EdgeFlags::LABEL_BORDER;
+        }
+        if !seam_keys.is_empty()
+            && seam_keys
+                .binary_search(&((u64::from(a) << 32) | u64::from(b)))
+                .is_ok()
+        {
+            fl |= EdgeFlags::SEAM;
         }
         if !fl.is_empty() {
             edges.push([a, b]);

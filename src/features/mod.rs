@@ -126,6 +126,9 @@ impl EdgeFlags {
     pub const LABEL_BORDER: EdgeFlags = EdgeFlags(4);
     /// The edge has more than two faces.
     pub const NON_MANIFOLD: EdgeFlags = EdgeFlags(8);
+    /// A corner attribute (a texture coordinate, a colour) differs across
+    /// the edge: an attribute seam, kept like a label border.
+    pub const SEAM: EdgeFlags = EdgeFlags(16);
 
     /// Whether every reason in `other` is present.
     pub fn contains(self, other: EdgeFlags) -> bool {
@@ -239,11 +242,24 @@ pub struct FeatureSet {
 /// with repeated or out-of-range indices (ignored), degenerate faces (never
 /// a crease), inconsistent orientation and non-manifold edges.
 pub fn detect_features(mesh: &TriMesh, opts: &FeatureOptions) -> FeatureSet {
+    detect_features_with_seams(mesh, opts, &[])
+}
+
+/// [`detect_features`] with the attribute seams `seams` (vertex pairs of
+/// `mesh`, either order) as features too: flagged [`EdgeFlags::SEAM`] and,
+/// like label borders, never dropped as small creases. A pair that is not
+/// an edge of `mesh` is ignored.
+pub fn detect_features_with_seams(
+    mesh: &TriMesh,
+    opts: &FeatureOptions,
+    seams: &[[u32; 2]],
+) -> FeatureSet {
     let nv = mesh.positions.len();
     let feature_angle = sanitize(opts.feature_angle_deg, DEFAULT_FEATURE_ANGLE_DEG);
     let corner_angle = sanitize(opts.corner_angle_deg, DEFAULT_CORNER_ANGLE_DEG);
 
-    let (mut edges, mut edge_flags) = classify_edges(mesh, opts.preserve_features, feature_angle);
+    let (mut edges, mut edge_flags) =
+        classify_edges(mesh, opts.preserve_features, feature_angle, seams);
     if opts.min_crease_length > 0.0 {
         let bridge = opts.min_bridge_length.min(opts.min_crease_length);
         let gap = TWIN_GAP * opts.min_crease_length;
@@ -410,7 +426,7 @@ pub fn boundary_edges(mesh: &TriMesh) -> Vec<[u32; 2]> {
 /// exactly the bench's `sharp_edges` (boundaries and label borders are not
 /// included; see [`detect_features`] for the remesher's full feature set).
 pub fn sharp_edges(mesh: &TriMesh, angle_deg: f64) -> Vec<[u32; 2]> {
-    let (edges, flags) = classify_edges(mesh, true, angle_deg);
+    let (edges, flags) = classify_edges(mesh, true, angle_deg, &[]);
     edges
         .into_iter()
         .zip(flags)

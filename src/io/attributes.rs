@@ -95,6 +95,8 @@ pub(super) fn per_corner(mesh: &TriMesh, attrs: &Attributes) -> (TriMesh, Vec<At
         },
         face_labels: mesh.face_labels.clone(),
         labels: mesh.labels.clone(),
+        attributes: mesh.attributes.select(&corners),
+        appearance: mesh.appearance.clone(),
     };
     let gltf_name = |n: &str| format!("_{}", n.to_ascii_uppercase());
     let mut extra: Vec<Attribute> = attrs

@@ -180,6 +180,8 @@ pub fn with_split_normals(
         normals,
         face_labels: mesh.face_labels.clone(),
         labels: mesh.labels.clone(),
+        attributes: Default::default(),
+        appearance: mesh.appearance.clone(),
     }
 }
 

@@ -1,5 +1,6 @@
 //! The `result.mesh` codec: an exact binary form of [`TriMesh`] (positions
-//! and normals as f64, triangles, face labels and the label table) that the
+//! and normals as f64, triangles, face labels and the label table, vertex
+//! attributes, and the textures and images byte for byte) that the
 //! service stores next to each result so that it can re-encode it into any
 //! format later. glTF would round positions to f32 and STL/OFF would drop
 //! labels and normals, so none of the exchange formats serves.
@@ -8,17 +9,23 @@ use std::io;
 
 use glam::DVec3;
 
+use crate::appearance::Appearance;
 use crate::trimesh::{Label, TriMesh};
 
 /// Magic and version of `result.mesh`.
-const MESH_MAGIC: &[u8; 8] = b"IRMESH01";
+const MESH_MAGIC: &[u8; 8] = b"IRMESH02";
+/// The previous version, without attributes and appearance: still read.
+const MESH_MAGIC_V1: &[u8; 8] = b"IRMESH01";
 
 fn put_u64(out: &mut Vec<u8>, v: u64) {
     out.extend_from_slice(&v.to_le_bytes());
 }
 
 /// Serialises a mesh exactly: magic, five u64 counts (positions, triangles,
-/// normals, face labels, label-JSON bytes), then the arrays little-endian.
+/// normals, face labels, label-JSON bytes), then the arrays little-endian;
+/// then the texture coordinate sets (a count, then per set its pairs), the
+/// colours (a count, the alpha flag, RGBA quadruples), and the appearance
+/// (JSON bytes without the images, then per image its length and bytes).
 pub fn encode(m: &TriMesh) -> io::Result<Vec<u8>> {
     let labels = serde_json::to_vec(&m.labels).map_err(io::Error::other)?;
     let mut out =
@@ -47,6 +54,32 @@ pub fn encode(m: &TriMesh) -> io::Result<Vec<u8>> {
         out.extend_from_slice(&l.to_le_bytes());
     }
     out.extend_from_slice(&labels);
+    let a = &m.attributes;
+    put_u64(&mut out, a.texcoords.len() as u64);
+    for set in &a.texcoords {
+        put_u64(&mut out, set.len() as u64);
+        for x in set.iter().flatten() {
+            out.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    put_u64(&mut out, a.colors.len() as u64);
+    out.push(u8::from(a.color_alpha));
+    for x in a.colors.iter().flatten() {
+        out.extend_from_slice(&x.to_le_bytes());
+    }
+    match &m.appearance {
+        None => put_u64(&mut out, u64::MAX),
+        Some(look) => {
+            let meta = serde_json::to_vec(&**look).map_err(io::Error::other)?;
+            put_u64(&mut out, meta.len() as u64);
+            out.extend_from_slice(&meta);
+            put_u64(&mut out, look.images.len() as u64);
+            for img in &look.images {
+                put_u64(&mut out, img.bytes.len() as u64);
+                out.extend_from_slice(&img.bytes);
+            }
+        }
+    }
     Ok(out)
 }
 
@@ -85,6 +118,9 @@ impl Reader<'_> {
         let b = self.take(4)?;
         Ok(u32::from_le_bytes(b.try_into().map_err(io::Error::other)?))
     }
+    fn f32(&mut self) -> io::Result<f32> {
+        Ok(f32::from_bits(self.u32()?))
+    }
     fn vec3(&mut self) -> io::Result<DVec3> {
         Ok(DVec3::new(self.f64()?, self.f64()?, self.f64()?))
     }
@@ -94,7 +130,9 @@ impl Reader<'_> {
 /// invariants.
 pub fn decode(bytes: &[u8]) -> io::Result<TriMesh> {
     let mut r = Reader(bytes);
-    if r.take(8)? != MESH_MAGIC {
+    let magic = r.take(8)?;
+    let v2 = magic == MESH_MAGIC;
+    if !v2 && magic != MESH_MAGIC_V1 {
         return Err(io::Error::new(
             io::ErrorKind::InvalidData,
             "not a result.mesh file",
@@ -112,13 +150,46 @@ pub fn decode(bytes: &[u8]) -> io::Result<TriMesh> {
         .collect::<io::Result<_>>()?;
     let face_labels = (0..nl).map(|_| r.u32()).collect::<io::Result<_>>()?;
     let labels = serde_json::from_slice::<Vec<Label>>(r.take(nj)?).map_err(io::Error::other)?;
-    let m = TriMesh {
+    let mut m = TriMesh {
         positions,
         triangles,
         normals,
         face_labels,
         labels,
+        ..Default::default()
     };
+    if v2 {
+        let sets = r.count(8)?;
+        for _ in 0..sets {
+            let n = r.count(8)?;
+            let set = (0..n)
+                .map(|_| Ok([r.f32()?, r.f32()?]))
+                .collect::<io::Result<_>>()?;
+            m.attributes.texcoords.push(set);
+        }
+        let nc = r.count(16)?;
+        m.attributes.color_alpha = r.take(1)?[0] != 0;
+        m.attributes.colors = (0..nc)
+            .map(|_| Ok([r.f32()?, r.f32()?, r.f32()?, r.f32()?]))
+            .collect::<io::Result<_>>()?;
+        let meta_len = r.u64()?;
+        if meta_len != u64::MAX {
+            let meta = r.take(usize::try_from(meta_len).map_err(io::Error::other)?)?;
+            let mut look: Appearance = serde_json::from_slice(meta).map_err(io::Error::other)?;
+            let ni = r.count(8)?;
+            if ni != look.images.len() {
+                return Err(io::Error::new(
+                    io::ErrorKind::InvalidData,
+                    "result.mesh image count differs from its metadata",
+                ));
+            }
+            for img in &mut look.images {
+                let n = r.count(1)?;
+                img.bytes = r.take(n)?.to_vec();
+            }
+            m.appearance = Some(std::sync::Arc::new(look));
+        }
+    }
     m.check()
         .map_err(|e| io::Error::new(io::ErrorKind::InvalidData, e))?;
     Ok(m)
@@ -127,6 +198,7 @@ pub fn decode(bytes: &[u8]) -> io::Result<TriMesh> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::appearance::Image;
     use crate::trimesh::Material;
 
     #[test]
@@ -145,6 +217,22 @@ mod tests {
                 }),
             },
         ];
+        m.attributes.texcoords = vec![m
+            .positions
+            .iter()
+            .map(|p| [p.x as f32, p.y as f32])
+            .collect()];
+        m.attributes.colors = vec![[0.5, 0.25, 1.0, 0.75]; m.positions.len()];
+        m.attributes.color_alpha = true;
+        m.appearance = Some(std::sync::Arc::new(Appearance {
+            textures: vec![serde_json::json!({"source": 0})],
+            images: vec![Image {
+                mime_type: Some("image/png".into()),
+                bytes: vec![1, 2, 3, 0, 255],
+                ..Default::default()
+            }],
+            ..Default::default()
+        }));
         let bytes = encode(&m).unwrap();
         assert_eq!(decode(&bytes).unwrap(), m);
         for cut in [0, 7, 20, bytes.len() / 2, bytes.len() - 1] {

@@ -35,6 +35,10 @@ use crate::trimesh::{Label, TriMesh};
 /// Edge flag bit: the edge is a feature (sharp crease, boundary or label border).
 pub const EDGE_FEATURE: u8 = 1;
 
+/// Edge flag bit: the edge is an attribute seam (a texture coordinate or a
+/// colour differs across it); always set together with [`EDGE_FEATURE`].
+pub const EDGE_SEAM: u8 = 2;
+
 /// A manifold, consistently oriented triangle mesh in half-edge form.
 #[derive(Clone, Debug, Default)]
 pub struct Mesh {
@@ -336,6 +340,7 @@ impl Mesh {
             normals: Vec::new(),
             face_labels: if has_labels { face_labels } else { Vec::new() },
             labels: self.labels.clone(),
+            ..Default::default()
         }
     }
 

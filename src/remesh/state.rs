@@ -15,9 +15,12 @@ use super::{RemeshError, RemeshOptions, Sizing};
 use crate::bvh::SurfaceIndex;
 use crate::curvature;
 use crate::features::anchors::{anchor_tips, anchor_turns, Neighborhood};
-use crate::features::{detect_features, FeatureOptions, FeatureSet, VertexKind};
+use crate::features::{
+    detect_features_with_seams, EdgeFlags, FeatureOptions, FeatureSet, VertexKind,
+};
 use crate::mesh::{
     scatter, CollapseResult, EdgeId, HalfedgeId, Handle, Mesh, SplitResult, VertexId, EDGE_FEATURE,
+    EDGE_SEAM,
 };
 use crate::reference::Reference;
 use crate::sizing::{SizingField, SizingOptions};
@@ -133,7 +136,17 @@ impl State {
                 let neighbors = face_neighbors(tm, &csr.0, &csr.1);
                 (index, csr, neighbors)
             },
-            || Derived::build(&mesh, tm, options, uniform_l, diag, area),
+            || {
+                Derived::build(
+                    &mesh,
+                    tm,
+                    input.surface_seams(),
+                    options,
+                    uniform_l,
+                    diag,
+                    area,
+                )
+            },
         );
         let Derived {
             features,
@@ -156,6 +169,12 @@ impl State {
             if let Some(l) = features.edge_line(a.0, b.0) {
                 *line = l;
                 mesh.edge_flags[EdgeId(e as u32)] |= EDGE_FEATURE;
+                let seam = features
+                    .edge_id(a.0, b.0)
+                    .is_some_and(|id| features.edge_flags(id).contains(EdgeFlags::SEAM));
+                if seam {
+                    mesh.edge_flags[EdgeId(e as u32)] |= EDGE_SEAM;
+                }
             }
         }
         let input_normals = (0..index.triangle_count() as u32)
@@ -334,6 +353,7 @@ impl Derived {
     fn build(
         mesh: &Mesh,
         tm: &TriMesh,
+        seams: &[[u32; 2]],
         options: &RemeshOptions,
         uniform_l: Option<f64>,
         diag: f64,
@@ -341,7 +361,7 @@ impl Derived {
     ) -> Result<Self, RemeshError> {
         // The unit of min_crease_length: L, or the smallest adaptive target.
         let unit = uniform_l.unwrap_or_else(|| adaptive_options(options, diag).min_edge_length);
-        let features = detect_features(
+        let features = detect_features_with_seams(
             tm,
             &FeatureOptions {
                 preserve_features: options.preserve_features,
@@ -350,6 +370,7 @@ impl Derived {
                 min_crease_length: options.min_crease_length * unit,
                 min_bridge_length: COLLAPSE_FACTOR * unit,
             },
+            seams,
         );
         let nv = mesh.vertex_capacity();
         let is_feature = |a: u32, b: u32| features.is_feature_edge(a, b);

@@ -276,6 +276,10 @@ impl Layout<'_> {
 pub(crate) enum Role {
     Vec3,
     Index,
+    /// Texture coordinates: vec2.
+    Vec2,
+    /// A colour: vec3 or vec4, read as given (3 or 4 values per element).
+    Color,
 }
 
 pub(crate) struct Reader<'a> {
@@ -343,6 +347,9 @@ impl<'a> Reader<'a> {
         let (want, components) = match role {
             Role::Vec3 => (Type::Vec3, 3),
             Role::Index => (Type::Scalar, 1),
+            Role::Vec2 => (Type::Vec2, 2),
+            Role::Color if acc.type_ == Checked::Valid(Type::Vec4) => (Type::Vec4, 4),
+            Role::Color => (Type::Vec3, 3),
         };
         if acc.type_ != Checked::Valid(want) {
             return Err(self.parse_err(format!(

@@ -36,6 +36,7 @@ use super::{check_triangle_budget, Format, Imported, IoError, ReadOptions};
 use crate::{Label, Material, TriMesh};
 
 mod access;
+mod look;
 mod write;
 
 pub use access::percent_decode;
@@ -56,6 +57,7 @@ fn to_material(m: &json::Material) -> Material {
         roughness_factor: pbr.roughness_factor.0,
         emissive_factor: m.emissive_factor.0.map(|c| c * strength),
         double_sided: m.double_sided,
+        gltf: None,
     }
 }
 
@@ -167,6 +169,7 @@ pub(super) fn read(bytes: &[u8], format: Format, opts: &ReadOptions) -> Result<I
             format!("the file requires {ext}, which isoremesh cannot decode"),
         ));
     }
+    let look = look::RawLook::parse(json_bytes, format)?;
     let instances = instances(&root, format)?;
     let max_vertices = opts
         .max_triangles
@@ -183,7 +186,8 @@ pub(super) fn read(bytes: &[u8], format: Format, opts: &ReadOptions) -> Result<I
     let mut ignored = 0u64;
     let mut all_normals = true;
     let mut labels: HashMap<Option<usize>, u32> = HashMap::new();
-    let mut shared: HashMap<(usize, usize, Option<usize>), (u32, u32)> = HashMap::new();
+    type VertexKey = (usize, usize, Option<usize>, Vec<usize>, Option<usize>);
+    let mut shared: HashMap<VertexKey, (u32, u32)> = HashMap::new();
     let mut scratch: Vec<f64> = Vec::new();
     for (instance, &(m, world)) in instances.iter().enumerate() {
         let det = world.determinant();
@@ -223,6 +227,17 @@ pub(super) fn read(bytes: &[u8], format: Format, opts: &ReadOptions) -> Result<I
                 .get(&Checked::Valid(Semantic::Normals))
                 .map(|i| i.value());
             let idx_acc = prim.indices.map(|i| i.value());
+            let tex_accs: Vec<usize> = (0u32..)
+                .map_while(|k| {
+                    prim.attributes
+                        .get(&Checked::Valid(Semantic::TexCoords(k)))
+                        .map(|i| i.value())
+                })
+                .collect();
+            let color_acc = prim
+                .attributes
+                .get(&Checked::Valid(Semantic::Colors(0)))
+                .map(|i| i.value());
 
             // Bound the output before reading anything.
             let corner_count = match idx_acc {
@@ -235,7 +250,7 @@ pub(super) fn read(bytes: &[u8], format: Format, opts: &ReadOptions) -> Result<I
             };
             check_triangle_budget(mesh.triangles.len() as u64 + new_triangles, opts)?;
 
-            let key = (instance, pos_acc, nrm_acc);
+            let key = (instance, pos_acc, nrm_acc, tex_accs.clone(), color_acc);
             let (base, vcount) = match shared.get(&key) {
                 Some(&b) => b,
                 None => {
@@ -273,6 +288,14 @@ pub(super) fn read(bytes: &[u8], format: Format, opts: &ReadOptions) -> Result<I
                         }
                         None => all_normals = false,
                     }
+                    read_vertex_attributes(
+                        &mut reader,
+                        &mut mesh,
+                        &tex_accs,
+                        color_acc,
+                        (pos_acc, n),
+                        &mut scratch,
+                    )?;
                     let entry = (base, super::vertex_index(n)?);
                     shared.insert(key, entry);
                     entry
@@ -339,9 +362,13 @@ pub(super) fn read(bytes: &[u8], format: Format, opts: &ReadOptions) -> Result<I
             let label = *labels.entry(mat).or_insert(next);
             if label == next {
                 let material = match mat {
-                    Some(i) => Some(to_material(root.materials.get(i).ok_or_else(|| {
-                        IoError::parse(format, format!("material {i} does not exist"))
-                    })?)),
+                    Some(i) => {
+                        let mut m = to_material(root.materials.get(i).ok_or_else(|| {
+                            IoError::parse(format, format!("material {i} does not exist"))
+                        })?);
+                        m.gltf = look.verbatim_material(i);
+                        Some(m)
+                    }
                     None => None,
                 };
                 mesh.labels.push(Label {
@@ -352,6 +379,16 @@ pub(super) fn read(bytes: &[u8], format: Format, opts: &ReadOptions) -> Result<I
             mesh.face_labels.resize(mesh.triangles.len(), label);
         }
     }
+    let nv = mesh.positions.len();
+    for set in &mut mesh.attributes.texcoords {
+        set.resize(nv, [0.0; 2]);
+    }
+    if !mesh.attributes.colors.is_empty() {
+        mesh.attributes.colors.resize(nv, [1.0; 4]);
+    }
+    mesh.appearance = look
+        .appearance(&mut reader.buffers)?
+        .map(std::sync::Arc::new);
     if all_normals {
         mesh.normals.resize(mesh.positions.len(), DVec3::ZERO);
     } else {
@@ -365,4 +402,74 @@ pub(super) fn read(bytes: &[u8], format: Format, opts: &ReadOptions) -> Result<I
         mesh,
         ignored_primitives: ignored,
     })
+}
+
+/// Reads the texture coordinate sets `tex` (TEXCOORD_0, 1, …) and the
+/// colour `color` of a vertex block of `n` vertices read from accessor
+/// `pos`, appending them to `mesh`'s attributes; sets that earlier blocks
+/// lacked are padded with zeros (colours with white) first.
+fn read_vertex_attributes(
+    reader: &mut Reader,
+    mesh: &mut TriMesh,
+    tex: &[usize],
+    color: Option<usize>,
+    (pos, n): (usize, usize),
+    scratch: &mut Vec<f64>,
+) -> Result<(), IoError> {
+    let format = reader.format;
+    let base = mesh.positions.len() - n;
+    let count_err = |what: &str, a: usize, got: usize| {
+        IoError::parse(
+            format,
+            format!("{what} accessor {a} has {got} elements but POSITION accessor {pos} has {n}"),
+        )
+    };
+    for (k, &a) in tex.iter().enumerate() {
+        scratch.clear();
+        let got = reader.read(a, Role::Vec2, scratch)?;
+        let what = format!("TEXCOORD_{k}");
+        if got != n {
+            return Err(count_err(&what, a, got));
+        }
+        if scratch.iter().any(|x| !(*x as f32).is_finite()) {
+            return Err(IoError::parse(
+                format,
+                format!("{what} accessor {a} holds a value that is not a finite number"),
+            ));
+        }
+        let sets = &mut mesh.attributes.texcoords;
+        if sets.len() <= k {
+            sets.resize(k + 1, Vec::new());
+        }
+        sets[k].resize(base, [0.0; 2]);
+        sets[k].extend(scratch.chunks_exact(2).map(|c| [c[0] as f32, c[1] as f32]));
+    }
+    if let Some(a) = color {
+        let rgba = reader.root.accessors.get(a).map(|x| x.type_)
+            == Some(Checked::Valid(json::accessor::Type::Vec4));
+        scratch.clear();
+        let got = reader.read(a, Role::Color, scratch)?;
+        if got != n {
+            return Err(count_err("COLOR_0", a, got));
+        }
+        if scratch.iter().any(|x| !(*x as f32).is_finite()) {
+            return Err(IoError::parse(
+                format,
+                format!("COLOR_0 accessor {a} holds a value that is not a finite number"),
+            ));
+        }
+        let colors = &mut mesh.attributes.colors;
+        colors.resize(base, [1.0; 4]);
+        let w = if rgba { 4 } else { 3 };
+        colors.extend(scratch.chunks_exact(w).map(|c| {
+            [
+                c[0] as f32,
+                c[1] as f32,
+                c[2] as f32,
+                if rgba { c[3] as f32 } else { 1.0 },
+            ]
+        }));
+        mesh.attributes.color_alpha |= rgba;
+    }
+    Ok(())
 }

@@ -146,6 +146,32 @@ pub(in crate::io) fn write(
             .iter()
             .for_each(|x| bin.extend_from_slice(&x.to_le_bytes()));
     }
+    // Texture coordinate sets, then the colour (vec3, or vec4 with alpha).
+    let attrs = &mesh.attributes;
+    let mut channel_at = Vec::new();
+    for set in &attrs.texcoords {
+        channel_at.push(bin.len());
+        set.iter()
+            .flatten()
+            .for_each(|x| bin.extend_from_slice(&x.to_le_bytes()));
+    }
+    let color_at = bin.len();
+    let color_width = if attrs.color_alpha { 4 } else { 3 };
+    for c in &attrs.colors {
+        c[..color_width]
+            .iter()
+            .for_each(|x| bin.extend_from_slice(&x.to_le_bytes()));
+    }
+    // Images go into the binary chunk of a GLB, 4-byte aligned.
+    let look = mesh.appearance.as_deref().filter(|a| !a.is_empty());
+    let mut image_spans = Vec::new();
+    if let (Some(look), Format::Glb) = (look, format) {
+        for img in &look.images {
+            bin.resize(bin.len().next_multiple_of(4), 0);
+            image_spans.push((bin.len(), img.bytes.len()));
+            bin.extend_from_slice(&img.bytes);
+        }
+    }
 
     let mut root = json::Root {
         asset: json::Asset {
@@ -231,6 +257,63 @@ pub(in crate::io) fn write(
         at += len;
     }
 
+    let channel_end = channel_at
+        .iter()
+        .skip(1)
+        .copied()
+        .chain([color_at])
+        .collect::<Vec<_>>();
+    for (k, (&at, &end)) in channel_at.iter().zip(&channel_end).enumerate() {
+        let view = buffer_view(&mut root, at, end - at, Target::ArrayBuffer);
+        let acc = accessor(
+            &mut root,
+            view,
+            0,
+            nv,
+            ComponentType::F32,
+            Type::Vec2,
+            None,
+            None,
+        );
+        attributes.insert(Checked::Valid(Semantic::TexCoords(k as u32)), acc);
+    }
+    if !attrs.colors.is_empty() {
+        let len = attrs.colors.len() * color_width * 4;
+        let view = buffer_view(&mut root, color_at, len, Target::ArrayBuffer);
+        let acc = accessor(
+            &mut root,
+            view,
+            0,
+            nv,
+            ComponentType::F32,
+            if attrs.color_alpha {
+                Type::Vec4
+            } else {
+                Type::Vec3
+            },
+            None,
+            None,
+        );
+        attributes.insert(Checked::Valid(Semantic::Colors(0)), acc);
+    }
+    let image_views: Vec<usize> = image_spans
+        .iter()
+        .map(|&(at, len)| {
+            root.push(json::buffer::View {
+                buffer: json::Index::new(0),
+                byte_length: USize64::from(len),
+                byte_offset: Some(USize64::from(at)),
+                byte_stride: None,
+                name: None,
+                target: None,
+                extensions: None,
+                extras: Default::default(),
+            })
+            .value()
+        })
+        .collect();
+    // (material index, verbatim JSON) of the materials written as read.
+    let mut verbatim = Vec::new();
     let mut primitives = Vec::new();
     let mut offset = 0;
     let mut uses_strength = false;
@@ -253,7 +336,11 @@ pub(in crate::io) fn write(
             Some(m) => {
                 let (jm, strength) = to_json_material(m);
                 uses_strength |= strength;
-                Some(root.push(jm))
+                let index = root.push(jm);
+                if let Some(raw) = &m.gltf {
+                    verbatim.push((index.value(), raw.clone()));
+                }
+                Some(index)
             }
             None => None,
         };
@@ -292,7 +379,7 @@ pub(in crate::io) fn write(
 
     let ser =
         |e: serde_json::Error| IoError::parse(format, format!("serializing the JSON failed: {e}"));
-    let json_text = if extra_accessors.is_empty() {
+    let json_text = if extra_accessors.is_empty() && verbatim.is_empty() && look.is_none() {
         serde_json::to_vec(&root).map_err(ser)?
     } else {
         let mut doc = serde_json::to_value(&root).map_err(ser)?;
@@ -302,6 +389,13 @@ pub(in crate::io) fn write(
                     p["attributes"][name] = serde_json::json!(acc);
                 }
             }
+        }
+        for (i, raw) in verbatim {
+            doc["materials"][i] = raw;
+        }
+        if let Some(look) = look {
+            let views = (format == Format::Glb).then_some(image_views.as_slice());
+            look::write_look(&mut doc, look, views);
         }
         serde_json::to_vec(&doc).map_err(ser)?
     };

@@ -1,0 +1,434 @@
+//! Attribute transfer: the input's per-corner attributes (texture
+//! coordinates, colours) sampled onto the remeshed surface, chart by chart,
+//! so that nothing bleeds across a seam.
+//!
+//! The rule: the output corners around a vertex fall into wedges, separated
+//! by the output's seam edges; each wedge takes the input's attribute at
+//! the input point closest to the vertex, read on the input's side of the
+//! seam that the wedge lies on. The side is found by starting from the
+//! input face closest to a point inside one of the wedge's faces (its
+//! centroid) and walking on the input towards the vertex, across edges that
+//! are not seams, boundaries or non-manifold: a walk never leaves its chart,
+//! and where the vertex sits on a seam (seams are features, so output seam
+//! vertices lie on input seam lines) the walk stops on the seam with that
+//! side's value. Every corner of one wedge gets the same value, so writers
+//! split a vertex exactly where the attribute differs.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::appearance::VertexAttributes;
+use crate::bvh::{closest_point_on_triangle, SurfaceIndex};
+use crate::topology::UnionFind;
+use crate::trimesh::{weld_positions, TriMesh};
+
+/// No face across an edge: a boundary, a non-manifold edge or a seam.
+const NONE: u32 = u32::MAX;
+
+/// The most faces a walk visits before it settles for the best so far.
+const MAX_WALK: usize = 256;
+
+/// The input's attributes, prepared for sampling: per face corner values
+/// over the welded input, the face adjacency that walks use (cut at
+/// seams), the input's seam edges and a closest-point index.
+pub struct SourceAttributes {
+    layout: VertexAttributes,
+    width: usize,
+    /// `width` floats per corner of each kept face.
+    corner_values: Vec<f32>,
+    /// Per kept face, the face across the edge from corner k to k + 1.
+    across: Vec<[u32; 3]>,
+    /// Per kept face, the input face (index into the source) it came from.
+    source_face: Vec<u32>,
+    /// Seam edges as welded-position pairs, a < b.
+    seams: Vec<[u32; 2]>,
+    index: SurfaceIndex,
+}
+
+/// Undirected edges of `tris` with their half-edges (`3·face + k`, from
+/// corner k to k + 1), sorted by edge and then half-edge.
+fn sorted_edges(tris: &[[u32; 3]]) -> Vec<(u64, u32)> {
+    let mut e: Vec<(u64, u32)> = tris
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(f, t)| {
+            (0..3).map(move |k| {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                (
+                    (u64::from(a.min(b)) << 32) | u64::from(a.max(b)),
+                    3 * f as u32 + k as u32,
+                )
+            })
+        })
+        .collect();
+    e.par_sort_unstable();
+    e
+}
+
+/// The runs of equal edge keys in [`sorted_edges`]'s output.
+fn edge_runs(edges: &[(u64, u32)]) -> impl Iterator<Item = &[(u64, u32)]> {
+    edges.chunk_by(|x, y| x.0 == y.0)
+}
+
+impl SourceAttributes {
+    /// Prepares the attributes of `source`; `None` when it has none.
+    /// Bit-identical positions are merged first, so corners of different
+    /// vertices at one point meet; faces that weld to fewer than three
+    /// corners or have no area are left out.
+    pub fn new(source: &TriMesh) -> Option<Self> {
+        let layout = &source.attributes;
+        if layout.is_empty() || layout.check(source.positions.len()).is_err() {
+            return None;
+        }
+        let width = layout.width();
+        let n = source.positions.len();
+        let (weld, positions) = weld_positions(&source.positions);
+        let mut tris = Vec::with_capacity(source.triangles.len());
+        let mut source_face = Vec::with_capacity(source.triangles.len());
+        let mut corner_values = Vec::with_capacity(source.triangles.len() * 3 * width);
+        for (f, t) in source.triangles.iter().enumerate() {
+            if t.iter().any(|&v| v as usize >= n) {
+                continue;
+            }
+            let w = t.map(|v| weld[v as usize]);
+            if w[0] == w[1] || w[1] == w[2] || w[0] == w[2] {
+                continue;
+            }
+            let p = w.map(|v| positions[v as usize]);
+            if (p[1] - p[0]).cross(p[2] - p[0]) == DVec3::ZERO {
+                continue;
+            }
+            tris.push(w);
+            source_face.push(f as u32);
+            for &v in t {
+                layout.gather(v as usize, &mut corner_values);
+            }
+        }
+        let mut across = vec![[NONE; 3]; tris.len()];
+        let mut seams = Vec::new();
+        let edges = sorted_edges(&tris);
+        let value = |h: u32, at: u32| -> &[f32] {
+            let f = (h / 3) as usize;
+            let k = (0..3).find(|&k| tris[f][k] == at).unwrap_or(0);
+            &corner_values[(3 * f + k) * width..][..width]
+        };
+        for run in edge_runs(&edges) {
+            if let [(key, h0), (_, h1)] = *run {
+                let (a, b) = ((key >> 32) as u32, key as u32);
+                let same =
+                    |x: &[f32], y: &[f32]| x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits());
+                if same(value(h0, a), value(h1, a)) && same(value(h0, b), value(h1, b)) {
+                    across[(h0 / 3) as usize][(h0 % 3) as usize] = h1 / 3;
+                    across[(h1 / 3) as usize][(h1 % 3) as usize] = h0 / 3;
+                } else {
+                    seams.push([a, b]);
+                }
+            }
+        }
+        let index = SurfaceIndex::new(&positions, &tris);
+        Some(Self {
+            layout: layout.empty_like(),
+            width,
+            corner_values,
+            across,
+            source_face,
+            seams,
+            index,
+        })
+    }
+
+    /// The attribute layout (empty lists): which sets and whether a colour.
+    pub fn layout(&self) -> &VertexAttributes {
+        &self.layout
+    }
+
+    /// Floats per corner.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// The input's seam edges, as pairs of welded positions: edges with two
+    /// faces whose corners disagree at either end.
+    pub fn seam_segments(&self) -> Vec<[DVec3; 2]> {
+        let p = self.index.positions();
+        self.seams
+            .iter()
+            .map(|&[a, b]| [p[a as usize], p[b as usize]])
+            .collect()
+    }
+
+    /// Number of seam edges of the input.
+    pub fn seam_count(&self) -> usize {
+        self.seams.len()
+    }
+
+    /// The seams of `mesh` (whose positions are the input's, e.g. the
+    /// repaired input): its vertex pairs whose positions form an input
+    /// seam edge.
+    pub fn seams_on(&self, mesh: &TriMesh) -> Vec<[u32; 2]> {
+        let key = |p: DVec3| [p.x, p.y, p.z].map(|c| (c + 0.0).to_bits());
+        let welded = self.index.positions();
+        let by_position: std::collections::HashMap<[u64; 3], u32> = welded
+            .iter()
+            .enumerate()
+            .map(|(i, &p)| (key(p), i as u32))
+            .collect();
+        let mut seams = self.seams.clone();
+        seams.sort_unstable();
+        let id: Vec<u32> = mesh
+            .positions
+            .iter()
+            .map(|&p| by_position.get(&key(p)).copied().unwrap_or(NONE))
+            .collect();
+        sorted_edges(&mesh.triangles)
+            .chunk_by(|x, y| x.0 == y.0)
+            .filter_map(|run| {
+                let key = run[0].0;
+                let (a, b) = ((key >> 32) as u32, key as u32);
+                let (wa, wb) = (id[a as usize], id[b as usize]);
+                (wa != NONE && wb != NONE && seams.binary_search(&[wa.min(wb), wa.max(wb)]).is_ok())
+                    .then_some([a, b])
+            })
+            .collect()
+    }
+
+    /// The attribute values of each corner of `out` (`width` floats per
+    /// corner, face by face), its corners grouped into wedges by its seam
+    /// edges `out_seams` (vertex pairs, either order).
+    pub fn sample(&self, out: &TriMesh, out_seams: &[[u32; 2]]) -> Vec<f32> {
+        let tris = &out.triangles;
+        let nc = tris.len() * 3;
+        let mut seam_keys: Vec<u64> = out_seams
+            .iter()
+            .map(|&[a, b]| (u64::from(a.min(b)) << 32) | u64::from(a.max(b)))
+            .collect();
+        seam_keys.sort_unstable();
+        let mut wedges = UnionFind::new(nc);
+        let next = |h: u32| 3 * (h / 3) + (h % 3 + 1) % 3;
+        for run in edge_runs(&sorted_edges(tris)) {
+            if let [(key, h0), (_, h1)] = *run {
+                let from = |h: u32| tris[(h / 3) as usize][(h % 3) as usize];
+                if seam_keys.binary_search(&key).is_ok() || from(h0) == from(h1) {
+                    continue;
+                }
+                // Consistently oriented twins: h0 runs a→b and h1 b→a.
+                wedges.union(h0, next(h1));
+                wedges.union(next(h0), h1);
+            }
+        }
+        let roots = wedges.into_roots();
+        let mut first = vec![NONE; nc];
+        let mut reps = Vec::new();
+        for (c, &r) in roots.iter().enumerate() {
+            let r = r as usize;
+            if first[r] == NONE {
+                first[r] = reps.len() as u32;
+                reps.push(c as u32);
+            }
+        }
+        let w = self.width;
+        let values: Vec<f32> = reps
+            .par_iter()
+            .flat_map_iter(|&c| {
+                let t = tris[(c / 3) as usize];
+                let p = out.corner_positions(&t);
+                let v = p[(c % 3) as usize];
+                self.value_at(v, (p[0] + p[1] + p[2]) / 3.0, face_normal(p))
+            })
+            .collect();
+        let mut out_values = vec![0f32; nc * w];
+        for c in 0..nc {
+            let k = first[roots[c] as usize] as usize;
+            out_values[c * w..][..w].copy_from_slice(&values[k * w..][..w]);
+        }
+        out_values
+    }
+
+    /// The attributes at `v`, read on the side of `inside`, a point of the
+    /// wedge's face whose normal is `normal`.
+    fn value_at(&self, v: DVec3, inside: DVec3, normal: DVec3) -> Vec<f32> {
+        let idx = &self.index;
+        let start = idx
+            .closest_point_filtered(inside, |f| idx.face_normal(f).dot(normal) > 0.0)
+            .or_else(|| idx.closest_point(inside));
+        let Some(start) = start else {
+            return vec![0.0; self.width];
+        };
+        let (face, bary) = self.walk(start.face, v);
+        let base = 3 * face as usize * self.width;
+        (0..self.width)
+            .map(|i| {
+                let c = |k: usize| f64::from(self.corner_values[base + k * self.width + i]);
+                (bary.x * c(0) + bary.y * c(1) + bary.z * c(2)) as f32
+            })
+            .collect()
+    }
+
+    /// From face `f`, the face of its chart nearest to `p` by a descent
+    /// over edge neighbours (moves that keep the distance are allowed, so
+    /// a walk can go round a vertex fan), with the barycentric coordinates
+    /// of the closest point on it.
+    fn walk(&self, f: u32, p: DVec3) -> (u32, DVec3) {
+        let idx = &self.index;
+        let closest = |f: u32| {
+            let t = idx.triangles()[f as usize];
+            let q = t.map(|v| idx.positions()[v as usize]);
+            let (pt, bary) = closest_point_on_triangle(p, q[0], q[1], q[2]);
+            (pt.distance_squared(p), bary)
+        };
+        let mut visited = vec![f];
+        let (mut cur, (mut d, mut bary)) = (f, closest(f));
+        for _ in 0..MAX_WALK {
+            let mut best: Option<(u32, f64, DVec3)> = None;
+            for &g in &self.across[cur as usize] {
+                if g == NONE || visited.contains(&g) {
+                    continue;
+                }
+                let (dg, bg) = closest(g);
+                if best.is_none_or(|b| dg < b.1) {
+                    best = Some((g, dg, bg));
+                }
+            }
+            match best {
+                Some((g, dg, bg)) if dg <= d => {
+                    visited.push(g);
+                    if dg < d {
+                        visited.clear();
+                        visited.push(cur);
+                        visited.push(g);
+                    }
+                    (cur, d, bary) = (g, dg, bg);
+                }
+                _ => break,
+            }
+        }
+        (cur, bary)
+    }
+
+    /// The input face (index into the source's triangles) of kept face `f`.
+    pub fn source_face(&self, f: u32) -> u32 {
+        self.source_face[f as usize]
+    }
+}
+
+fn face_normal(p: [DVec3; 3]) -> DVec3 {
+    (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero()
+}
+
+/// A copy of `mesh` whose vertices are split so that each carries one
+/// value of `corner_values` (`layout.width()` floats per corner, face by
+/// face): the first value met at a vertex keeps its index, others get
+/// copies (position and normal copied). The attributes are set from the
+/// values.
+pub fn split_by_values(
+    mesh: &TriMesh,
+    corner_values: &[f32],
+    layout: &VertexAttributes,
+    has_color: bool,
+) -> TriMesh {
+    let w = layout.width();
+    let n = mesh.positions.len();
+    let mut out = mesh.clone();
+    let mut attrs = layout.empty_like();
+    // Per vertex, the (value offset, vertex) pairs met so far.
+    let mut met: Vec<Vec<(usize, u32)>> = vec![Vec::new(); n];
+    let mut vertex_values: Vec<usize> = vec![usize::MAX; n];
+    for (f, t) in out.triangles.iter_mut().enumerate() {
+        for (k, slot) in t.iter_mut().enumerate() {
+            let c = 3 * f + k;
+            let val = &corner_values[c * w..][..w];
+            let v = *slot as usize;
+            let same = |o: usize| {
+                corner_values[o..][..w]
+                    .iter()
+                    .zip(val)
+                    .all(|(a, b)| a.to_bits() == b.to_bits())
+            };
+            if let Some(&(_, id)) = met[v].iter().find(|(o, _)| same(*o)) {
+                *slot = id;
+                continue;
+            }
+            let id = if met[v].is_empty() {
+                v as u32
+            } else {
+                out.positions.push(mesh.positions[v]);
+                if !mesh.normals.is_empty() {
+                    out.normals.push(mesh.normals[v]);
+                }
+                vertex_values.push(usize::MAX);
+                (out.positions.len() - 1) as u32
+            };
+            met[v].push((c * w, id));
+            vertex_values[id as usize] = c * w;
+            *slot = id;
+        }
+    }
+    let zero = vec![0f32; w];
+    for &o in &vertex_values {
+        let val = if o == usize::MAX {
+            &zero[..]
+        } else {
+            &corner_values[o..][..w]
+        };
+        attrs.push(val, has_color);
+    }
+    out.attributes = attrs;
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::shapes;
+
+    /// A unit cube whose six sides each map onto their own UV square.
+    fn charted_cube() -> TriMesh {
+        let cube = shapes::cube(4, DVec3::splat(-0.5), DVec3::splat(0.5));
+        let mut soup = TriMesh::default();
+        let mut uv = Vec::new();
+        for t in &cube.triangles {
+            let p = cube.corner_positions(t);
+            let n = face_normal(p);
+            let axis = n.abs().max_position();
+            let (i, j) = ((axis + 1) % 3, (axis + 2) % 3);
+            let base = soup.positions.len() as u32;
+            for q in p {
+                soup.positions.push(q);
+                uv.push([q[i] as f32 + 0.5, q[j] as f32 + 0.5 + 2.0 * axis as f32]);
+            }
+            soup.triangles.push([base, base + 1, base + 2]);
+        }
+        soup.attributes.texcoords = vec![uv];
+        soup
+    }
+
+    #[test]
+    fn cube_sides_are_charts_and_values_come_back() {
+        let cube = charted_cube();
+        let src = SourceAttributes::new(&cube).expect("has UVs");
+        // Every cube edge between two sides is a seam: 12 edges of 4 segments.
+        assert_eq!(src.seam_count(), 48);
+        let (welded, _) = cube.welded();
+        let seams = src.seams_on(&welded);
+        assert_eq!(seams.len(), 48);
+        let values = src.sample(&welded, &seams);
+        // Sampling the input at its own corners gives its own values.
+        for (f, t) in welded.triangles.iter().enumerate() {
+            let p = welded.corner_positions(t);
+            let axis = face_normal(p).abs().max_position();
+            let (i, j) = ((axis + 1) % 3, (axis + 2) % 3);
+            for (k, q) in p.iter().enumerate() {
+                let got = &values[(3 * f + k) * 2..][..2];
+                let want = [q[i] as f32 + 0.5, q[j] as f32 + 0.5 + 2.0 * axis as f32];
+                assert!(
+                    (got[0] - want[0]).abs() < 1e-5 && (got[1] - want[1]).abs() < 1e-5,
+                    "face {f} corner {k}: {got:?} vs {want:?}"
+                );
+            }
+        }
+        let split = split_by_values(&welded, &values, src.layout(), false);
+        // Each of the 8 cube corners is split in three, each edge vertex in two.
+        assert_eq!(split.positions.len(), 6 * 25);
+        assert!(split.check().is_ok());
+    }
+}

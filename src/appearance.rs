@@ -22,6 +22,19 @@ pub struct VertexAttributes {
     /// Whether the colours carry alpha (a vec4 `COLOR_0`, a PLY `alpha`);
     /// writers emit RGB otherwise.
     pub color_alpha: bool,
+    /// What the reader found but does not carry (skins, morph targets,
+    /// tangents, further colour sets), so that a job can name it.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub dropped: Vec<DroppedAttribute>,
+}
+
+/// An attribute of the input that the output will not carry.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct DroppedAttribute {
+    /// Its name, as glTF names it (`TANGENT`, `JOINTS_0`, `morph targets`).
+    pub name: String,
+    /// Why it is dropped.
+    pub reason: String,
 }
 
 impl VertexAttributes {
@@ -53,6 +66,7 @@ impl VertexAttributes {
             texcoords: vec![Vec::new(); self.texcoords.len()],
             colors: Vec::new(),
             color_alpha: self.color_alpha,
+            dropped: Vec::new(),
         }
     }
 
@@ -84,6 +98,7 @@ impl VertexAttributes {
                 order.iter().map(|&i| self.colors[i as usize]).collect()
             },
             color_alpha: self.color_alpha,
+            dropped: Vec::new(),
         }
     }
 
@@ -205,6 +220,7 @@ mod tests {
             texcoords: vec![vec![[0.0, 1.0], [2.0, 3.0]], vec![[4.0, 5.0], [6.0, 7.0]]],
             colors: vec![[0.1, 0.2, 0.3, 1.0], [0.4, 0.5, 0.6, 0.5]],
             color_alpha: true,
+            dropped: Vec::new(),
         };
         assert_eq!(a.width(), 8);
         let mut b = a.empty_like();

@@ -330,6 +330,7 @@ fn remesh_command(a: RemeshArgs) -> Result<(), Failure> {
             "headline": stats.headline,
             "input": stats.input,
             "output": stats.output,
+            "attributes": stats.attributes,
             "report": remeshed.out.report,
         });
         let text = serde_json::to_vec_pretty(&doc).map_err(|e| Failure(e.to_string()))?;

@@ -12,6 +12,7 @@ use crate::io::{self, Attribute, Attributes, Format, ReadOptions, WriteOptions};
 use crate::mesh::{BuildError, Mesh, EDGE_FEATURE, EDGE_SEAM};
 use crate::reference::Reference;
 use crate::remesh::{self, Observer, RemeshError, RemeshOptions, RemeshReport};
+use crate::stats::attributes::AttributeStats;
 use crate::stats::{self, Headline, MeshStats, StatsOptions};
 use crate::transfer::split_by_values;
 use crate::trimesh::TriMesh;
@@ -84,6 +85,10 @@ pub struct JobStats {
     pub input: MeshStats,
     /// The output, with its distance to the input.
     pub output: MeshStats,
+    /// Texture coordinates and colours: what was kept or dropped, and how
+    /// well seams, charts and the texture survived.
+    #[serde(default)]
+    pub attributes: AttributeStats,
 }
 
 /// The result of [`run`].
@@ -216,7 +221,14 @@ pub fn measure(input: &LoadedInput, remeshed: &Remeshed, options: &RemeshOptions
             ..Default::default()
         },
     );
+    let attributes = stats::attributes::compute(
+        &input.source,
+        input.source_attributes().map(|a| &**a),
+        &remeshed.written,
+        l,
+    );
     JobStats {
+        attributes,
         headline: output_stats.headline(),
         input: input_stats,
         output: output_stats,

@@ -13,6 +13,13 @@
 //! vertices lie on input seam lines) the walk stops on the seam with that
 //! side's value. Every corner of one wedge gets the same value, so writers
 //! split a vertex exactly where the attribute differs.
+//!
+//! Seams are the edges across which a corner value differs, and also the
+//! folds of a texture coordinate set: edges whose two faces have UV
+//! orientations of opposite sign (a mirrored half of a symmetric model that
+//! shares the other half's texels). An output triangle that straddled a fold
+//! would cover texels of both halves folded onto each other; kept as a
+//! feature, the fold stays an edge line of the output.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -117,7 +124,15 @@ impl SourceAttributes {
                 let (a, b) = ((key >> 32) as u32, key as u32);
                 let same =
                     |x: &[f32], y: &[f32]| x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits());
-                if same(value(h0, a), value(h1, a)) && same(value(h0, b), value(h1, b)) {
+                let sets = layout.texcoords.len();
+                let folded = (0..sets).any(|s| {
+                    let (x, y) = (
+                        uv_area(&corner_values, width, h0 / 3, s),
+                        uv_area(&corner_values, width, h1 / 3, s),
+                    );
+                    x * y < 0.0
+                });
+                if !folded && same(value(h0, a), value(h1, a)) && same(value(h0, b), value(h1, b)) {
                     across[(h0 / 3) as usize][(h0 % 3) as usize] = h1 / 3;
                     across[(h1 / 3) as usize][(h1 % 3) as usize] = h0 / 3;
                 } else {
@@ -305,10 +320,40 @@ impl SourceAttributes {
         (cur, bary)
     }
 
+    /// The closest input point to `p`: its kept face and the texture
+    /// coordinates of set `set` there.
+    pub fn closest_texcoord(&self, p: DVec3, set: usize) -> Option<(u32, [f64; 2])> {
+        let cp = self.index.closest_point(p)?;
+        let base = 3 * cp.face as usize * self.width + 2 * set;
+        let b = cp.barycentric;
+        let at = |k: usize, c: usize| f64::from(self.corner_values[base + k * self.width + c]);
+        Some((
+            cp.face,
+            [0, 1].map(|c| b.x * at(0, c) + b.y * at(1, c) + b.z * at(2, c)),
+        ))
+    }
+
+    /// The signed UV area, in set `set`, of the input face closest to `p`
+    /// among those facing the same side as `normal`.
+    pub fn uv_orientation_at(&self, p: DVec3, normal: DVec3, set: usize) -> Option<f64> {
+        let idx = &self.index;
+        let cp = idx
+            .closest_point_filtered(p, |f| idx.face_normal(f).dot(normal) > 0.0)
+            .or_else(|| idx.closest_point(p))?;
+        Some(uv_area(&self.corner_values, self.width, cp.face, set))
+    }
+
     /// The input face (index into the source's triangles) of kept face `f`.
     pub fn source_face(&self, f: u32) -> u32 {
         self.source_face[f as usize]
     }
+}
+
+/// Signed area of kept face `f` in texture coordinate set `set`.
+fn uv_area(values: &[f32], width: usize, f: u32, set: usize) -> f64 {
+    let at = |k: usize, c: usize| f64::from(values[(3 * f as usize + k) * width + 2 * set + c]);
+    0.5 * ((at(1, 0) - at(0, 0)) * (at(2, 1) - at(0, 1))
+        - (at(2, 0) - at(0, 0)) * (at(1, 1) - at(0, 1)))
 }
 
 fn face_normal(p: [DVec3; 3]) -> DVec3 {
@@ -316,17 +361,18 @@ fn face_normal(p: [DVec3; 3]) -> DVec3 {
 }
 
 /// A copy of `mesh` whose vertices are split so that each carries one
-/// value of `corner_values` (`layout.width()` floats per corner, face by
-/// face): the first value met at a vertex keeps its index, others get
-/// copies (position and normal copied). The attributes are set from the
-/// values.
+/// value of `corner_values` (`width` floats per corner, face by face, laid
+/// out as [`VertexAttributes::gather`] writes them for `layout`'s sets and,
+/// when `has_color`, a colour): the first value met at a vertex keeps its
+/// index, others get copies (position and normal copied). The attributes
+/// are set from the values.
 pub fn split_by_values(
     mesh: &TriMesh,
     corner_values: &[f32],
     layout: &VertexAttributes,
     has_color: bool,
 ) -> TriMesh {
-    let w = layout.width();
+    let w = 2 * layout.texcoords.len() + if has_color { 4 } else { 0 };
     let n = mesh.positions.len();
     let mut out = mesh.clone();
     let mut attrs = layout.empty_like();

@@ -97,23 +97,41 @@ fn every_input_format_runs_the_whole_flow() {
         ));
         ids.push((id, fmt));
     }
-    // glTF with its buffer as a part named by the uri.
+    // glTF with its buffer and its texture as parts named by their uri.
+    let png = data("gltf/BoxTextured/CesiumLogoFlat.png");
+    let bin = data("gltf/BoxTextured/BoxTextured0.bin");
+    let gltf = data("gltf/BoxTextured/BoxTextured.gltf");
     let r = s.submit(
         "BoxTextured.gltf",
-        data("gltf/BoxTextured/BoxTextured.gltf"),
+        gltf.clone(),
         Some(p.clone()),
-        vec![(
-            "BoxTextured0.bin".into(),
-            data("gltf/BoxTextured/BoxTextured0.bin"),
-        )],
+        vec![("BoxTextured0.bin".into(), bin.clone())],
+    );
+    let missing = assert_problem(r, 422, Some("CesiumLogoFlat.png"));
+    assert!(
+        missing["detail"]
+            .as_str()
+            .unwrap()
+            .contains("CesiumLogoFlat.png"),
+        "{missing}"
+    );
+    let r = s.submit(
+        "BoxTextured.gltf",
+        gltf,
+        Some(p.clone()),
+        vec![
+            ("BoxTextured0.bin".into(), bin),
+            ("CesiumLogoFlat.png".into(), png.clone()),
+        ],
     );
     let body: Value = r.json().unwrap();
     assert_eq!(
         body["input"]["buffers"],
-        json!(["BoxTextured0.bin"]),
+        json!(["BoxTextured0.bin", "CesiumLogoFlat.png"]),
         "{body}"
     );
-    ids.push((body["id"].as_str().unwrap().to_string(), "gltf"));
+    let box_id = body["id"].as_str().unwrap().to_string();
+    ids.push((box_id.clone(), "gltf"));
     // Raw bodies: format from Content-Type, then from magic bytes; params in the query.
     let r = s.submit_raw(
         "model/stl",
@@ -137,6 +155,20 @@ fn every_input_format_runs_the_whole_flow() {
     for (id, fmt) in &ids {
         jobs.push(check_succeeded(&s, id, fmt));
     }
+    // The textured box comes back textured, in GLB too, its image byte for byte.
+    let r = s.get(&format!("/v1/jobs/{box_id}/result?format=glb"));
+    assert_eq!(r.status().as_u16(), 200);
+    let back = io::read(&r.bytes().unwrap(), Format::Glb, &ReadOptions::default()).unwrap();
+    assert_eq!(back.mesh.attributes.texcoords.len(), 1);
+    assert_eq!(back.mesh.appearance.as_ref().unwrap().images[0].bytes, png);
+    let box_job = s.wait_finished(&box_id);
+    let uv = &box_job["stats"]["attributes"]["texcoords"][0];
+    assert_eq!(uv["uv_flipped"], 0, "{uv}");
+    assert_eq!(uv["uv_degenerate"], 0, "{uv}");
+    assert!(
+        uv["color_error"]["mean"][0].as_f64().unwrap() <= 3.0,
+        "{uv}"
+    );
     // Duck: 4212 input faces, read as GLB.
     assert_eq!(
         jobs[1]["stats"]["input"]["faces"],

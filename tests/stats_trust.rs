@@ -46,9 +46,9 @@ fn an_adaptive_job_measures_input_and_output_against_the_size_field() {
         out.stats.headline.valence.interior_mean_abs_deviation,
         out.stats.output.valence.interior_mean_abs_deviation
     );
-    let json = serde_json::to_value(&out.stats).unwrap();
-    let keys: Vec<&String> = json.as_object().unwrap().keys().collect();
-    assert_eq!(keys[0], "headline", "{keys:?}");
+    // The headline opens the document as written.
+    let json = serde_json::to_string(&out.stats).unwrap();
+    assert!(json.starts_with("{\"headline\":"), "{}", &json[..40]);
 }
 
 #[test]

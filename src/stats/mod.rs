@@ -20,6 +20,7 @@
 //! `quality_attributes` option) and `summary` (the headline and the text the
 //! command line prints).
 
+pub mod attributes;
 mod distance;
 mod edges;
 mod elements;

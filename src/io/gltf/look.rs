@@ -135,13 +135,16 @@ fn view_bytes(buffers: &mut Buffers, v: usize, image: usize) -> Result<Vec<u8>, 
 }
 
 /// An external file by the name the document gives it (as written,
-/// percent-decoded, or without a leading `./`).
+/// percent-decoded, without a leading `./`, or by its last path component,
+/// which is the name a browser gives an uploaded file).
 fn external(parts: &HashMap<String, Vec<u8>>, uri: &str) -> Result<Vec<u8>, IoError> {
     let found = parts.get(uri).or_else(|| {
         let decoded = percent_decode(uri)?;
+        let base = decoded.rsplit(['/', '\\']).next().unwrap_or(&decoded);
         parts
             .get(&decoded)
             .or_else(|| parts.get(decoded.trim_start_matches("./")))
+            .or_else(|| parts.get(base))
     });
     found.cloned().ok_or_else(|| IoError::ExternalBuffer {
         uri: uri.to_string(),

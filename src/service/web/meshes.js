@@ -20,10 +20,13 @@ export function mainFile(files) {
   return files.find((f) => MESH_EXTENSIONS.includes(extension(f.name))) ?? files[0];
 }
 
-/** The uris of a .gltf's external buffers: the parts the API takes with it. */
+/** The uris of a .gltf's external buffers and images: the parts the API takes with it. */
 export async function gltfBufferUris(file) {
   const doc = JSON.parse(await file.text());
-  return (doc.buffers ?? []).map((b) => b.uri).filter((u) => u && !u.startsWith('data:'));
+  return [...(doc.buffers ?? []), ...(doc.images ?? [])]
+    .map((b) => b.uri)
+    .filter((u) => u && !u.startsWith('data:'))
+    .map((u) => baseName(u));
 }
 
 const baseName = (url) => decodeURIComponent(url.split(/[\\/]/).pop().split(/[?#]/)[0]);
@@ -121,8 +124,9 @@ export async function loadInput(files) {
 /** The job's result as an Object3D: fetched as GLB, whatever its stored format. */
 export async function loadResult(bytes) {
   const gltf = await new GLTFLoader().parseAsync(bytes, '');
+  // A textured result keeps its material, so the texture shows after too.
   gltf.scene.traverse((o) => {
-    if (o.isMesh) o.material = defaultMaterial();
+    if (o.isMesh && !o.material?.map) o.material = defaultMaterial();
   });
   return gltf.scene;
 }

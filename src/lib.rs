@@ -15,6 +15,8 @@
 //! | [`stats`] | quality statistics: edge lengths, valence, angles, distances |
 //! | [`curvature`] | per-vertex principal curvatures (Rusinkiewicz 2004), feature-aware, and feature-polyline curvature |
 //! | [`remesh`] | the Botsch–Kobbelt remesher: options, driver, one pass per file, progress and cancellation |
+//! | [`appearance`] | per-vertex texture coordinates and colours, and the textures and images a mesh's materials use |
+//! | [`transfer`] | attribute transfer onto the remeshed surface: seams, wedges, chart-bound walks |
 //! | [`reference`] | the per-job [`reference::Reference`]: the input as read, repaired, indexed, welded and feature-detected once for the remesher and the statistics |
 //! | [`pipeline`] | a whole job on bytes: detect, read, repair, remesh, measure, encode |
 //! | [`shapes`] | icosphere, torus, cylinder, cube and other shapes generated in code |

@@ -354,3 +354,55 @@ fn a_texture_larger_than_the_limit_is_refused_from_its_header() {
         .mesh;
     assert_eq!(back.appearance.unwrap().images[0].bytes, png);
 }
+
+/// `glb` with its JSON chunk changed by `edit`.
+fn edit_glb(glb: &[u8], edit: impl FnOnce(&mut serde_json::Value)) -> Vec<u8> {
+    let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+    let mut doc: serde_json::Value = serde_json::from_slice(&glb[20..20 + json_len]).unwrap();
+    edit(&mut doc);
+    let mut text = serde_json::to_vec(&doc).unwrap();
+    while text.len() % 4 != 0 {
+        text.push(b' ');
+    }
+    let bin = &glb[20 + json_len..];
+    let mut out = b"glTF".to_vec();
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&((12 + 8 + text.len() + bin.len()) as u32).to_le_bytes());
+    out.extend_from_slice(&(text.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"JSON");
+    out.extend_from_slice(&text);
+    out.extend_from_slice(bin);
+    out
+}
+
+#[test]
+fn attributes_that_are_not_carried_are_named() {
+    let mut sphere = shapes::icosphere(2);
+    sphere.attributes.texcoords = vec![sphere
+        .positions
+        .iter()
+        .map(|p| [p.x as f32, p.y as f32])
+        .collect()];
+    let glb = io::write(&sphere, Format::Glb, &WriteOptions::default()).unwrap();
+    let glb = edit_glb(&glb, |doc| {
+        let attrs = &mut doc["meshes"][0]["primitives"][0]["attributes"];
+        let positions = attrs["POSITION"].clone();
+        attrs["TANGENT"] = positions.clone();
+        attrs["COLOR_1"] = positions;
+    });
+    let job = remesh(&glb);
+    let names: Vec<&str> = job
+        .stats
+        .attributes
+        .dropped
+        .iter()
+        .map(|d| d.name.as_str())
+        .collect();
+    assert_eq!(
+        names,
+        ["TANGENT", "COLOR_1"],
+        "{:?}",
+        job.stats.attributes.dropped
+    );
+    assert_eq!(job.stats.attributes.output, ["TEXCOORD_0"]);
+}

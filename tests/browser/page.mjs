@@ -245,19 +245,22 @@ async function flow() {
     assert.equal(stats.output.faces, job.result.triangles);
     result.spot = { triangles: job.result.triangles };
 
-    // A textured GLB: the texture shows in the before view.
+    // A textured GLB: the texture shows before and, carried through the
+    // remesh, after.
     await select(page, 'colour', 'material');
     job = await remesh(page, [path.join(data, 'gltf', 'Duck.glb')]);
     assert.equal(job.status, 'succeeded', JSON.stringify(job.error));
     const duck = await shot(page, 'textured-duck.png');
     assert.ok(duck.left.yellow > 0.02, `the duck's texture is not visible: ${JSON.stringify(duck.left)}`);
     assert.ok(duck.right.drawn > 0.02, 'the remeshed duck is not visible');
+    assert.ok(duck.right.yellow > 0.02, `the remeshed duck's texture is not visible: ${JSON.stringify(duck.right)}`);
     result.duck = { triangles: job.result.triangles };
 
-    // A .gltf with its external buffer, chosen together.
-    job = await remesh(page, [path.join(data, 'gltf', 'BoxTextured', 'BoxTextured.gltf'), path.join(data, 'gltf', 'BoxTextured', 'BoxTextured0.bin')]);
+    // A .gltf with its external buffer and image, chosen together.
+    const box = path.join(data, 'gltf', 'BoxTextured');
+    job = await remesh(page, [path.join(box, 'BoxTextured.gltf'), path.join(box, 'BoxTextured0.bin'), path.join(box, 'CesiumLogoFlat.png')]);
     assert.equal(job.status, 'succeeded', JSON.stringify(job.error));
-    assert.deepEqual(job.input.buffers, ['BoxTextured0.bin']);
+    assert.deepEqual(job.input.buffers, ['BoxTextured0.bin', 'CesiumLogoFlat.png']);
 
     // Cancel a long job while it is queued or running.
     await page.setInputFiles('#files', [path.join(data, 'spot.obj')]);

@@ -36,7 +36,7 @@
 //! a torus tube has a negative k2. `k1 ≥ k2` by value; `dir1`, `dir2` are
 //! the unit principal directions, tangent to the sector normal.
 
-use crate::topology::UnionFind;
+use crate::topology::{Csr, EdgeTable, UnionFind};
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -199,15 +199,6 @@ pub(crate) struct Topology {
     pub(crate) smooth_edges: Vec<[u32; 4]>,
 }
 
-/// One directed face edge, stored under its smaller endpoint.
-#[derive(Clone, Copy)]
-struct HalfEdge {
-    /// The larger endpoint.
-    hi: u32,
-    /// Corner at the edge's start vertex.
-    corner: u32,
-}
-
 #[inline]
 fn next(c: u32) -> u32 {
     if c % 3 == 2 {
@@ -223,14 +214,6 @@ fn prev(c: u32) -> u32 {
         c + 2
     } else {
         c - 1
-    }
-}
-
-/// Counting-sort prefix sums: turns per-bucket counts stored at `start[b+1]`
-/// into offsets.
-fn prefix_sum(start: &mut [u32]) {
-    for i in 1..start.len() {
-        start[i] += start[i - 1];
     }
 }
 
@@ -261,102 +244,47 @@ impl Topology {
             .collect();
         let vertex_of = |c: u32| tri[(c / 3) as usize][(c % 3) as usize];
 
-        // Half-edges bucketed by their smaller endpoint, sorted by the larger:
-        // equal runs inside a bucket are the faces around one undirected edge.
-        let mut edge_start = vec![0u32; nv + 1];
-        for (t, _) in tri.iter().zip(&face_distinct).filter(|(_, &ok)| ok) {
-            for k in 0..3 {
-                edge_start[t[k].min(t[(k + 1) % 3]) as usize + 1] += 1;
-            }
-        }
-        prefix_sum(&mut edge_start);
-        let mut fill = edge_start.clone();
-        let mut half_edges = vec![
-            HalfEdge {
-                hi: 0,
-                corner: NONE
-            };
-            edge_start[nv] as usize
-        ];
-        for (f, t) in tri.iter().enumerate() {
-            if !face_distinct[f] {
-                continue;
-            }
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                let slot = &mut fill[a.min(b) as usize];
-                half_edges[*slot as usize] = HalfEdge {
-                    hi: a.max(b),
-                    corner: (3 * f + k) as u32,
-                };
-                *slot += 1;
-            }
-        }
+        // Equal runs of the edge table are the faces around one edge.
+        let edges = EdgeTable::new(tri, nv);
 
         let mut sectors = UnionFind::new(3 * nf);
         let mut curve_edges = Vec::new();
         let mut smooth_edges = Vec::new();
-        for lo in 0..nv {
-            let bucket = &mut half_edges[edge_start[lo] as usize..edge_start[lo + 1] as usize];
-            bucket.sort_unstable_by_key(|h| h.hi);
-            let mut i = 0;
-            while i < bucket.len() {
-                let hi = bucket[i].hi;
-                let mut j = i + 1;
-                while j < bucket.len() && bucket[j].hi == hi {
-                    j += 1;
-                }
-                let run = &bucket[i..j];
-                let lo = lo as u32;
-                match run {
-                    [h0, h1] => {
-                        // Consistently oriented neighbours traverse the edge
-                        // in opposite directions.
-                        let consistent = vertex_of(h0.corner) != vertex_of(h1.corner);
-                        let feature = is_feature_edge.is_some_and(|p| p(lo, hi));
-                        if feature {
-                            curve_edges.push([lo, hi]);
-                        } else if consistent {
-                            let at = |h: &HalfEdge, v: u32| {
-                                if vertex_of(h.corner) == v {
-                                    h.corner
-                                } else {
-                                    next(h.corner)
-                                }
-                            };
-                            sectors.union(at(h0, lo), at(h1, lo));
-                            sectors.union(at(h0, hi), at(h1, hi));
-                            smooth_edges.push([lo, hi, h0.corner / 3, h1.corner / 3]);
-                        }
+        edges.for_each(|lo, hi, run| {
+            match *run {
+                [(_, h0), (_, h1)] => {
+                    // Consistently oriented neighbours traverse the edge
+                    // in opposite directions.
+                    let consistent = vertex_of(h0) != vertex_of(h1);
+                    let feature = is_feature_edge.is_some_and(|p| p(lo, hi));
+                    if feature {
+                        curve_edges.push([lo, hi]);
+                    } else if consistent {
+                        let at = |h: u32, v: u32| {
+                            if vertex_of(h) == v {
+                                h
+                            } else {
+                                next(h)
+                            }
+                        };
+                        sectors.union(at(h0, lo), at(h1, lo));
+                        sectors.union(at(h0, hi), at(h1, hi));
+                        smooth_edges.push([lo, hi, h0 / 3, h1 / 3]);
                     }
-                    _ => curve_edges.push([lo, hi]),
                 }
-                i = j;
+                _ => curve_edges.push([lo, hi]),
             }
-        }
-        drop(half_edges);
+        });
+        drop(edges);
 
         // Corners grouped by vertex, then by union-find root (= sector).
-        let mut vertex_corner_start = vec![0u32; nv + 1];
-        for (t, _) in tri.iter().zip(&face_distinct).filter(|(_, &ok)| ok) {
-            for &v in t {
-                vertex_corner_start[v as usize + 1] += 1;
-            }
-        }
-        prefix_sum(&mut vertex_corner_start);
-        let mut fill = vertex_corner_start.clone();
-        let mut corners = vec![0u32; vertex_corner_start[nv] as usize];
-        for (f, t) in tri.iter().enumerate() {
-            if !face_distinct[f] {
-                continue;
-            }
-            for (k, &v) in t.iter().enumerate() {
-                let slot = &mut fill[v as usize];
-                corners[*slot as usize] = (3 * f + k) as u32;
-                *slot += 1;
-            }
-        }
-        drop(fill);
+        let (vertex_corner_start, mut corners) = Csr::from_pairs(nv, || {
+            tri.iter()
+                .enumerate()
+                .filter(|&(f, _)| face_distinct[f])
+                .flat_map(|(f, t)| (0..3).map(move |k| (t[k], (3 * f + k) as u32)))
+        })
+        .into_parts();
         let root = sectors.into_roots();
         let mut corner_sector = vec![NONE; 3 * nf];
         let mut sector_start = Vec::with_capacity(nv + 1);

@@ -1,6 +1,145 @@
-//! Topology helpers shared by the readers, the curvature estimate and the
-//! statistics: a disjoint-set forest over `u32` ids, for grouping vertices
-//! into components or boundary loops and corners into smooth fans.
+//! Topology helpers shared by the mesh builder, the readers, the curvature
+//! estimate, feature detection, attribute transfer and the statistics:
+//! compressed rows ([`Csr`]) for every per-vertex list (faces, corners,
+//! outgoing half-edges), the undirected [`EdgeTable`] of a triangle list,
+//! and a disjoint-set forest over `u32` ids, for grouping vertices into
+//! components or boundary loops and corners into smooth fans.
+
+/// Rows of values in one flat array (compressed sparse rows): row `r` is
+/// `values[start[r]..start[r + 1]]`. Built in two passes over the same
+/// pairs, a count and a fill, so a mesh-sized list of pairs is never held
+/// and no row is a separate allocation.
+#[derive(Clone, Debug, Default)]
+pub struct Csr<T> {
+    start: Vec<u32>,
+    values: Vec<T>,
+}
+
+impl<T: Copy + Default> Csr<T> {
+    /// Builds `rows` rows from the `(row, value)` pairs that `pairs()`
+    /// yields. `pairs` is called twice and must yield the same pairs both
+    /// times; within a row, values keep the order in which they came, so
+    /// the result is as deterministic as the pairs.
+    ///
+    /// # Panics
+    /// If a row index is `>= rows`, or there are `u32::MAX` values or more.
+    pub fn from_pairs<I>(rows: usize, pairs: impl Fn() -> I) -> Self
+    where
+        I: Iterator<Item = (u32, T)>,
+    {
+        let mut start = vec![0u32; rows + 1];
+        for (r, _) in pairs() {
+            start[r as usize + 1] += 1;
+        }
+        for r in 0..rows {
+            start[r + 1] = start[r]
+                .checked_add(start[r + 1])
+                .expect("fewer than 2^32 values in compressed rows");
+        }
+        let mut fill: Vec<u32> = start[..rows].to_vec();
+        let mut values = vec![T::default(); start[rows] as usize];
+        for (r, v) in pairs() {
+            let slot = &mut fill[r as usize];
+            values[*slot as usize] = v;
+            *slot += 1;
+        }
+        Self { start, values }
+    }
+}
+
+impl<T> Csr<T> {
+    /// Number of rows.
+    pub fn rows(&self) -> usize {
+        self.start.len().saturating_sub(1)
+    }
+
+    /// Row `r`.
+    #[inline]
+    pub fn row(&self, r: u32) -> &[T] {
+        &self.values[self.start[r as usize] as usize..self.start[r as usize + 1] as usize]
+    }
+
+    /// Row `r`, mutable.
+    #[inline]
+    pub fn row_mut(&mut self, r: u32) -> &mut [T] {
+        &mut self.values[self.start[r as usize] as usize..self.start[r as usize + 1] as usize]
+    }
+
+    /// The row offsets, `rows() + 1` of them.
+    pub fn starts(&self) -> &[u32] {
+        &self.start
+    }
+
+    /// All values, row after row.
+    pub fn values(&self) -> &[T] {
+        &self.values
+    }
+
+    /// Sorts every row.
+    pub fn sort_rows(&mut self)
+    where
+        T: Ord,
+    {
+        for r in 0..self.rows() as u32 {
+            let row = self.row_mut(r);
+            if row.len() > 1 {
+                row.sort_unstable();
+            }
+        }
+    }
+
+    /// The offsets and the values.
+    pub fn into_parts(self) -> (Vec<u32>, Vec<T>) {
+        (self.start, self.values)
+    }
+}
+
+/// Is `t` a face with three in-range, distinct corners?
+#[inline]
+pub fn is_proper(t: &[u32; 3], vertex_count: usize) -> bool {
+    t.iter().all(|&v| (v as usize) < vertex_count) && t[0] != t[1] && t[1] != t[2] && t[2] != t[0]
+}
+
+/// The undirected edges of a triangle list with the half-edges on each.
+/// A half-edge is `3·face + k`, the side from corner `k` to corner `k + 1`.
+/// Faces with a repeated or out-of-range corner are left out. Half-edges
+/// are bucketed by the edge's smaller end point (rows of a [`Csr`]) and
+/// sorted by the larger one and then by half-edge, so edges come in
+/// increasing (a, b) order without a global sort.
+#[derive(Clone, Debug, Default)]
+pub struct EdgeTable {
+    rows: Csr<(u32, u32)>,
+}
+
+impl EdgeTable {
+    /// Builds the table of `triangles` over `vertex_count` vertices.
+    pub fn new(triangles: &[[u32; 3]], vertex_count: usize) -> Self {
+        let mut rows = Csr::from_pairs(vertex_count, || {
+            triangles
+                .iter()
+                .enumerate()
+                .filter(|(_, t)| is_proper(t, vertex_count))
+                .flat_map(|(f, t)| {
+                    (0..3).map(move |k| {
+                        let (a, b) = (t[k], t[(k + 1) % 3]);
+                        (a.min(b), (a.max(b), 3 * f as u32 + k as u32))
+                    })
+                })
+        });
+        rows.sort_rows();
+        Self { rows }
+    }
+
+    /// Calls `f(a, b, half_edges)` for every undirected edge `a < b` in
+    /// increasing order; `half_edges` are its `(b, half-edge)` pairs.
+    pub fn for_each(&self, mut f: impl FnMut(u32, u32, &[(u32, u32)])) {
+        for a in 0..self.rows.rows() as u32 {
+            for run in self.rows.row(a).chunk_by(|x, y| x.0 == y.0) {
+                f(a, run[0].0, run);
+            }
+        }
+    }
+}
 
 /// Disjoint-set forest with path halving; a union keeps the smaller root,
 /// so every class's root is its smallest member whatever the order of the
@@ -52,6 +191,38 @@ impl UnionFind {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn rows_keep_the_order_of_their_pairs() {
+        let pairs = [(2u32, 'a'), (0, 'b'), (2, 'c'), (0, 'd'), (3, 'e')];
+        let csr = Csr::from_pairs(4, || pairs.iter().copied());
+        assert_eq!(csr.rows(), 4);
+        assert_eq!(csr.row(0), &['b', 'd']);
+        assert_eq!(csr.row(1), &[] as &[char]);
+        assert_eq!(csr.row(2), &['a', 'c']);
+        assert_eq!(csr.row(3), &['e']);
+        assert_eq!(csr.starts(), &[0, 2, 2, 4, 5]);
+    }
+
+    #[test]
+    fn edges_come_sorted_with_their_half_edges() {
+        // Two faces on 0-1-2 / 2-1-3, and one face with a repeated corner.
+        let tris = [[0, 1, 2], [2, 1, 3], [3, 3, 0]];
+        let mut seen = Vec::new();
+        EdgeTable::new(&tris, 4).for_each(|a, b, hs| {
+            seen.push((a, b, hs.iter().map(|h| h.1).collect::<Vec<_>>()));
+        });
+        assert_eq!(
+            seen,
+            vec![
+                (0, 1, vec![0]),
+                (0, 2, vec![2]),
+                (1, 2, vec![1, 3]),
+                (1, 3, vec![4]),
+                (2, 3, vec![5]),
+            ]
+        );
+    }
 
     #[test]
     fn the_smallest_member_is_the_root() {

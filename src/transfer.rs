@@ -26,7 +26,7 @@ use rayon::prelude::*;
 
 use crate::appearance::VertexAttributes;
 use crate::bvh::{closest_point_on_triangle, SurfaceIndex};
-use crate::topology::UnionFind;
+use crate::topology::{EdgeTable, UnionFind};
 use crate::trimesh::{weld_positions, TriMesh};
 
 /// No face across an edge: a boundary, a non-manifold edge or a seam.
@@ -50,31 +50,6 @@ pub struct SourceAttributes {
     /// Seam edges as welded-position pairs, a < b.
     seams: Vec<[u32; 2]>,
     index: SurfaceIndex,
-}
-
-/// Undirected edges of `tris` with their half-edges (`3·face + k`, from
-/// corner k to k + 1), sorted by edge and then half-edge.
-fn sorted_edges(tris: &[[u32; 3]]) -> Vec<(u64, u32)> {
-    let mut e: Vec<(u64, u32)> = tris
-        .par_iter()
-        .enumerate()
-        .flat_map_iter(|(f, t)| {
-            (0..3).map(move |k| {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                (
-                    (u64::from(a.min(b)) << 32) | u64::from(a.max(b)),
-                    3 * f as u32 + k as u32,
-                )
-            })
-        })
-        .collect();
-    e.par_sort_unstable();
-    e
-}
-
-/// The runs of equal edge keys in [`sorted_edges`]'s output.
-fn edge_runs(edges: &[(u64, u32)]) -> impl Iterator<Item = &[(u64, u32)]> {
-    edges.chunk_by(|x, y| x.0 == y.0)
 }
 
 impl SourceAttributes {
@@ -113,15 +88,14 @@ impl SourceAttributes {
         }
         let mut across = vec![[NONE; 3]; tris.len()];
         let mut seams = Vec::new();
-        let edges = sorted_edges(&tris);
+        let edges = EdgeTable::new(&tris, positions.len());
         let value = |h: u32, at: u32| -> &[f32] {
             let f = (h / 3) as usize;
             let k = (0..3).find(|&k| tris[f][k] == at).unwrap_or(0);
             &corner_values[(3 * f + k) * width..][..width]
         };
-        for run in edge_runs(&edges) {
-            if let [(key, h0), (_, h1)] = *run {
-                let (a, b) = ((key >> 32) as u32, key as u32);
+        edges.for_each(|a, b, run| {
+            if let [(_, h0), (_, h1)] = *run {
                 let same =
                     |x: &[f32], y: &[f32]| x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits());
                 let sets = layout.texcoords.len();
@@ -139,7 +113,7 @@ impl SourceAttributes {
                     seams.push([a, b]);
                 }
             }
-        }
+        });
         let index = SurfaceIndex::new(&positions, &tris);
         Some(Self {
             layout: layout.empty_like(),
@@ -195,16 +169,14 @@ impl SourceAttributes {
             .iter()
             .map(|&p| by_position.get(&key(p)).copied().unwrap_or(NONE))
             .collect();
-        sorted_edges(&mesh.triangles)
-            .chunk_by(|x, y| x.0 == y.0)
-            .filter_map(|run| {
-                let key = run[0].0;
-                let (a, b) = ((key >> 32) as u32, key as u32);
-                let (wa, wb) = (id[a as usize], id[b as usize]);
-                (wa != NONE && wb != NONE && seams.binary_search(&[wa.min(wb), wa.max(wb)]).is_ok())
-                    .then_some([a, b])
-            })
-            .collect()
+        let mut out = Vec::new();
+        EdgeTable::new(&mesh.triangles, mesh.positions.len()).for_each(|a, b, _| {
+            let (wa, wb) = (id[a as usize], id[b as usize]);
+            if wa != NONE && wb != NONE && seams.binary_search(&[wa.min(wb), wa.max(wb)]).is_ok() {
+                out.push([a, b]);
+            }
+        });
+        out
     }
 
     /// The attribute values of each corner of `out` (`width` floats per
@@ -220,17 +192,18 @@ impl SourceAttributes {
         seam_keys.sort_unstable();
         let mut wedges = UnionFind::new(nc);
         let next = |h: u32| 3 * (h / 3) + (h % 3 + 1) % 3;
-        for run in edge_runs(&sorted_edges(tris)) {
-            if let [(key, h0), (_, h1)] = *run {
+        EdgeTable::new(tris, out.positions.len()).for_each(|a, b, run| {
+            if let [(_, h0), (_, h1)] = *run {
                 let from = |h: u32| tris[(h / 3) as usize][(h % 3) as usize];
+                let key = (u64::from(a) << 32) | u64::from(b);
                 if seam_keys.binary_search(&key).is_ok() || from(h0) == from(h1) {
-                    continue;
+                    return;
                 }
                 // Consistently oriented twins: h0 runs a→b and h1 b→a.
                 wedges.union(h0, next(h1));
                 wedges.union(next(h0), h1);
             }
-        }
+        });
         let roots = wedges.into_roots();
         let mut first = vec![NONE; nc];
         let mut reps = Vec::new();

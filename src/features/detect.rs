@@ -6,6 +6,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::*;
+use crate::topology::{Csr, EdgeTable};
 use crate::trimesh::TriMesh;
 
 /// Traces feature lines through the feature graph, recording for every edge
@@ -54,94 +55,14 @@ impl LineWalker<'_> {
 /// row `v` is `adj[offset[v]..offset[v + 1]]`, (neighbour, edge id) pairs
 /// sorted by neighbour.
 pub(crate) fn feature_adjacency(nv: usize, edges: &[[u32; 2]]) -> (Vec<u32>, Vec<[u32; 2]>) {
-    let mut offset = vec![0u32; nv + 1];
-    for &[a, b] in edges {
-        offset[a as usize + 1] += 1;
-        offset[b as usize + 1] += 1;
-    }
-    for i in 0..nv {
-        offset[i + 1] += offset[i];
-    }
-    let mut fill: Vec<u32> = offset[..nv].to_vec();
-    let mut adj = vec![[0u32; 2]; 2 * edges.len()];
-    for (e, &[a, b]) in edges.iter().enumerate() {
-        adj[fill[a as usize] as usize] = [b, e as u32];
-        fill[a as usize] += 1;
-        adj[fill[b as usize] as usize] = [a, e as u32];
-        fill[b as usize] += 1;
-    }
-    for v in 0..nv {
-        let row = &mut adj[offset[v] as usize..offset[v + 1] as usize];
-        if row.len() > 1 {
-            row.sort_unstable();
-        }
-    }
-    (offset, adj)
-}
-
-/// Undirected edges of `mesh` with their half-edges, visited in (a, b) order
-/// with a < b. A half-edge is `3·face + k`, the edge from corner `k` to corner
-/// `k + 1`. Bucketing by the smaller end point replaces a global sort.
-pub(crate) struct EdgeTable {
-    /// (b, half-edge) grouped by a (CSR over `offset`), sorted within a row.
-    pub(crate) items: Vec<(u32, u32)>,
-    pub(crate) offset: Vec<u32>,
-}
-
-impl EdgeTable {
-    pub(crate) fn new(mesh: &TriMesh) -> Self {
-        let nv = mesh.positions.len();
-        let valid = |t: &[u32; 3]| {
-            t.iter().all(|&v| (v as usize) < nv) && t[0] != t[1] && t[1] != t[2] && t[2] != t[0]
-        };
-        let mut offset = vec![0u32; nv + 1];
-        for t in mesh.triangles.iter().filter(|t| valid(t)) {
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                offset[a.min(b) as usize + 1] += 1;
-            }
-        }
-        for i in 0..nv {
-            offset[i + 1] += offset[i];
-        }
-        let mut fill: Vec<u32> = offset[..nv].to_vec();
-        let mut items = vec![(0u32, 0u32); offset[nv] as usize];
-        for (f, t) in mesh.triangles.iter().enumerate() {
-            if !valid(t) {
-                continue;
-            }
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                let lo = a.min(b) as usize;
-                items[fill[lo] as usize] = (a.max(b), 3 * f as u32 + k as u32);
-                fill[lo] += 1;
-            }
-        }
-        for v in 0..nv {
-            let row = &mut items[offset[v] as usize..offset[v + 1] as usize];
-            if row.len() > 1 {
-                row.sort_unstable();
-            }
-        }
-        Self { items, offset }
-    }
-
-    /// Calls `f(a, b, half_edges)` for every undirected edge in sorted order.
-    pub(crate) fn for_each(&self, mut f: impl FnMut(u32, u32, &[(u32, u32)])) {
-        for a in 0..self.offset.len().saturating_sub(1) {
-            let row = &self.items[self.offset[a] as usize..self.offset[a + 1] as usize];
-            let mut i = 0;
-            while i < row.len() {
-                let b = row[i].0;
-                let mut j = i + 1;
-                while j < row.len() && row[j].0 == b {
-                    j += 1;
-                }
-                f(a as u32, b, &row[i..j]);
-                i = j;
-            }
-        }
-    }
+    let mut rows = Csr::from_pairs(nv, || {
+        edges
+            .iter()
+            .enumerate()
+            .flat_map(|(e, &[a, b])| [(a, [b, e as u32]), (b, [a, e as u32])])
+    });
+    rows.sort_rows();
+    rows.into_parts()
 }
 
 /// Dihedral angle of the edge shared by half-edges `h0`, `h1`, degrees; 0
@@ -167,7 +88,7 @@ pub(crate) fn classify_edges(
     feature_angle_deg: f64,
     seams: &[[u32; 2]],
 ) -> (Vec<[u32; 2]>, Vec<EdgeFlags>) {
-    let table = EdgeTable::new(mesh);
+    let table = EdgeTable::new(&mesh.triangles, mesh.positions.len());
     let mut seam_keys: Vec<u64> = seams
         .iter()
         .map(|&[a, b]| (u64::from(a.min(b)) << 32) | u64::from(a.max(b)))

@@ -34,6 +34,7 @@
 use glam::DVec3;
 
 use crate::bvh::SegmentIndex;
+use crate::topology::EdgeTable;
 use crate::trimesh::TriMesh;
 
 pub(crate) mod anchors;
@@ -407,14 +408,14 @@ fn face_normal(p: [DVec3; 3]) -> DVec3 {
 /// with repeated or out-of-range indices are ignored.
 pub fn mesh_edges(mesh: &TriMesh) -> Vec<[u32; 2]> {
     let mut out = Vec::new();
-    EdgeTable::new(mesh).for_each(|a, b, _| out.push([a, b]));
+    EdgeTable::new(&mesh.triangles, mesh.positions.len()).for_each(|a, b, _| out.push([a, b]));
     out
 }
 
 /// Edges of `mesh` with exactly one face, sorted.
 pub fn boundary_edges(mesh: &TriMesh) -> Vec<[u32; 2]> {
     let mut out = Vec::new();
-    EdgeTable::new(mesh).for_each(|a, b, hs| {
+    EdgeTable::new(&mesh.triangles, mesh.positions.len()).for_each(|a, b, hs| {
         if hs.len() == 1 {
             out.push([a, b]);
         }

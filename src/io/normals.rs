@@ -13,7 +13,7 @@
 //! is expected to share vertices (welded); an unwelded soup gets flat
 //! shading, because no edge is interior.
 
-use crate::topology::UnionFind;
+use crate::topology::{Csr, UnionFind};
 use std::collections::HashSet;
 
 use glam::DVec3;
@@ -71,24 +71,8 @@ pub fn with_split_normals(
     // its vertex to the next corner's vertex.
     let head = |c: usize| tris[c / 3][c % 3];
     let tail = |c: usize| tris[c / 3][(c % 3 + 1) % 3];
-    let mut start = vec![0u32; n + 1];
-    for t in tris {
-        for &v in t {
-            start[v as usize + 1] += 1;
-        }
-    }
-    for v in 0..n {
-        start[v + 1] += start[v];
-    }
-    let mut fill = start.clone();
-    let mut outgoing = vec![0u32; corners];
-    for c in 0..corners {
-        let v = head(c) as usize;
-        outgoing[fill[v] as usize] = c as u32;
-        fill[v] += 1;
-    }
-    drop(fill);
-    let out_of = |v: u32| &outgoing[start[v as usize] as usize..start[v as usize + 1] as usize];
+    let outgoing = Csr::from_pairs(n, || (0..corners).map(|c| (head(c), c as u32)));
+    let out_of = |v: u32| outgoing.row(v);
 
     let sharp: HashSet<u64> = extra_sharp_edges
         .iter()

@@ -20,6 +20,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{HalfedgeId, Mesh, VertexId};
 use crate::mesh::handles::Handle;
+use crate::topology::Csr;
 use crate::trimesh::{first_occurrences, weld_positions, Label, TriMesh};
 
 /// What the builder repaired while turning indexed triangles into a valid
@@ -420,32 +421,17 @@ fn build(input: &TriMesh) -> Result<(Mesh, RepairReport), BuildError> {
     // 6. Split non-manifold vertices: one vertex per fan of faces. Outgoing
     // face half-edges per vertex, as CSR.
     let nh = mesh.he_to.len();
-    let mut start = vec![0u32; nv + 1];
-    for h in 0..nh as u32 {
-        let h = HalfedgeId(h);
-        if !mesh.is_boundary_halfedge(h) {
-            start[mesh.from_vertex(h).idx() + 1] += 1;
-        }
-    }
-    for v in 0..nv {
-        start[v + 1] += start[v];
-    }
-    let mut fill = start.clone();
-    let mut out = vec![HalfedgeId::INVALID; start[nv] as usize];
-    for h in 0..nh as u32 {
-        let h = HalfedgeId(h);
-        if !mesh.is_boundary_halfedge(h) {
-            let v = mesh.from_vertex(h).idx();
-            out[fill[v] as usize] = h;
-            fill[v] += 1;
-        }
-    }
-    drop(fill);
+    let out = Csr::from_pairs(nv, || {
+        (0..nh as u32)
+            .map(HalfedgeId)
+            .filter(|&h| !mesh.is_boundary_halfedge(h))
+            .map(|h| (mesh.from_vertex(h).idx() as u32, h))
+    });
     let mut visited = vec![false; nh];
     let mut fan: Vec<HalfedgeId> = Vec::new();
     for v in 0..nv {
         let mut fans = 0;
-        for &h0 in &out[start[v] as usize..start[v + 1] as usize] {
+        for &h0 in out.row(v as u32) {
             if visited[h0.idx()] {
                 continue;
             }
@@ -494,7 +480,6 @@ fn build(input: &TriMesh) -> Result<(Mesh, RepairReport), BuildError> {
         }
     }
     drop(out);
-    drop(start);
     drop(visited);
 
     // Link boundary half-edges into loops and make boundary half-edges the

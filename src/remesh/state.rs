@@ -24,6 +24,7 @@ use crate::mesh::{
 };
 use crate::reference::Reference;
 use crate::sizing::{SizingField, SizingOptions};
+use crate::topology::Csr;
 use crate::trimesh::TriMesh;
 
 pub(super) use crate::features::anchors::{CORNER, SMOOTH};
@@ -455,25 +456,13 @@ impl Derived {
 
 /// Faces around each vertex of `tm`, in compressed rows.
 fn vertex_face_csr(tm: &TriMesh) -> (Vec<u32>, Vec<u32>) {
-    let n = tm.positions.len();
-    let mut start = vec![0u32; n + 1];
-    for t in &tm.triangles {
-        for &v in t {
-            start[v as usize + 1] += 1;
-        }
-    }
-    for i in 0..n {
-        start[i + 1] += start[i];
-    }
-    let mut fill = start.clone();
-    let mut faces = vec![0u32; start[n] as usize];
-    for (f, t) in tm.triangles.iter().enumerate() {
-        for &v in t {
-            faces[fill[v as usize] as usize] = f as u32;
-            fill[v as usize] += 1;
-        }
-    }
-    (start, faces)
+    Csr::from_pairs(tm.positions.len(), || {
+        tm.triangles
+            .iter()
+            .enumerate()
+            .flat_map(|(f, t)| t.iter().map(move |&v| (v, f as u32)))
+    })
+    .into_parts()
 }
 
 /// The faces across the three edges of every input face (see

@@ -4,11 +4,10 @@
 //! pair used by at least one face; its face count is the number of face
 //! sides on it; a boundary edge has one face; valence counts distinct edges.
 //!
-//! The table is built by sorting one packed `u64` key per face side, so it
-//! costs one radix-friendly sort and no hashing.
+//! The table is read off [`crate::topology::EdgeTable`], the one edge
+//! table of the crate.
 
-use rayon::prelude::*;
-
+use crate::topology;
 pub(crate) use crate::topology::UnionFind;
 
 /// One undirected edge `a < b` and the number of face sides on it.
@@ -32,84 +31,27 @@ pub(crate) struct EdgeTable {
 impl EdgeTable {
     /// Builds the table of `triangles`, each of whose indices must be
     /// `< vertex_count`; faces with an out-of-range index or a repeated
-    /// corner are skipped by the caller, not here.
+    /// corner are skipped by the caller, and left out here too. A side
+    /// runs forward when it goes from the smaller end point to the larger.
     pub fn new(triangles: &[[u32; 3]], vertex_count: usize) -> Self {
-        if vertex_count < (1usize << 31) {
-            Self::packed(triangles)
-        } else {
-            Self::wide(triangles)
-        }
-    }
-
-    /// Key = min·2³³ + max·2 + forward bit, fitting u64 while indices are < 2³¹.
-    fn packed(triangles: &[[u32; 3]]) -> Self {
-        let mut keys: Vec<u64> = Vec::with_capacity(triangles.len() * 3);
-        keys.par_extend(triangles.par_iter().flat_map_iter(|t| {
-            (0..3).map(move |k| {
-                let (u, v) = (t[k] as u64, t[(k + 1) % 3] as u64);
-                if u < v {
-                    (u << 33) | (v << 1) | 1
-                } else {
-                    (v << 33) | (u << 1)
-                }
-            })
-        }));
-        keys.par_sort_unstable();
-        Self::from_sorted(keys.iter().map(|&k| (k >> 1, k & 1 == 1)), |e| {
-            ((e >> 32) as u32, (e & 0xFFFF_FFFF) as u32)
-        })
-    }
-
-    /// Fallback for ≥ 2³¹ vertices: (edge, forward) pairs.
-    fn wide(triangles: &[[u32; 3]]) -> Self {
-        let mut keys: Vec<(u64, bool)> = Vec::with_capacity(triangles.len() * 3);
-        for t in triangles {
-            for k in 0..3 {
-                let (u, v) = (t[k] as u64, t[(k + 1) % 3] as u64);
-                keys.push(((u.min(v) << 32) | u.max(v), u < v));
-            }
-        }
-        keys.par_sort_unstable();
-        Self::from_sorted(keys.into_iter(), |e| {
-            ((e >> 32) as u32, (e & 0xFFFF_FFFF) as u32)
-        })
-    }
-
-    /// Run-length pass over sorted (edge key, forward) pairs.
-    fn from_sorted(
-        sorted: impl Iterator<Item = (u64, bool)>,
-        decode: impl Fn(u64) -> (u32, u32),
-    ) -> Self {
         let mut edges = Vec::new();
         let mut non_manifold_edges = 0;
         let mut misoriented = false;
-        let mut current: Option<(u64, u32, u32)> = None; // key, faces, forward
-        let mut flush = |key: u64, faces: u32, forward: u32, edges: &mut Vec<Edge>| {
-            let (a, b) = decode(key);
-            edges.push(Edge { a, b, faces });
+        topology::EdgeTable::new(triangles, vertex_count).for_each(|a, _, hs| {
+            let faces = hs.len() as u32;
+            edges.push(Edge {
+                a,
+                b: hs[0].0,
+                faces,
+            });
             if faces > 2 {
                 non_manifold_edges += 1;
-            } else if faces == 2 && forward != 1 {
-                misoriented = true;
+            } else if faces == 2 {
+                let from = |h: u32| triangles[(h / 3) as usize][(h % 3) as usize];
+                let forward = hs.iter().filter(|&&(_, h)| from(h) == a).count();
+                misoriented |= forward != 1;
             }
-        };
-        for (key, fwd) in sorted {
-            match &mut current {
-                Some((k, faces, forward)) if *k == key => {
-                    *faces += 1;
-                    *forward += fwd as u32;
-                }
-                _ => {
-                    if let Some((k, faces, forward)) = current {
-                        flush(k, faces, forward, &mut edges);
-                    }
-                    current = Some((key, 1, fwd as u32));
-                }
-            }
-        }
-        if let Some((k, faces, forward)) = current {
-            flush(k, faces, forward, &mut edges);
-        }
+        });
         Self {
             edges,
             non_manifold_edges,
@@ -130,13 +72,10 @@ mod tests {
     use super::*;
 
     #[test]
-    fn packed_and_wide_tables_agree() {
+    fn face_counts_and_orientation() {
         let tris = [[0, 1, 2], [2, 1, 3], [1, 0, 4], [0, 1, 5], [3, 2, 1]];
-        let p = EdgeTable::packed(&tris);
-        let w = EdgeTable::wide(&tris);
-        assert_eq!(p.edges, w.edges);
-        assert_eq!(p.non_manifold_edges, w.non_manifold_edges);
-        assert_eq!(p.misoriented, w.misoriented);
+        let p = EdgeTable::new(&tris, 6);
+        assert_eq!(p.edges.len(), 9);
         // Edges 0-1 and 1-2 carry three faces; 2-3 and 1-3 carry two, but
         // [3,2,1] runs along them in the same directions as [2,1,3].
         assert_eq!(p.non_manifold_edges, 2);

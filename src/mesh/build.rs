@@ -15,12 +15,11 @@
 //! hashing throughout, so building is O(n log n) with small constants.
 
 use glam::DVec3;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::{HalfedgeId, Mesh, VertexId};
 use crate::mesh::handles::Handle;
-use crate::topology::Csr;
+use crate::topology::{Csr, EdgeTable};
 use crate::trimesh::{first_occurrences, weld_positions, Label, TriMesh};
 
 /// What the builder repaired while turning indexed triangles into a valid
@@ -178,7 +177,7 @@ const MAX_PAIRED_FAN: usize = 8;
 /// duplicate): cut apart, the two surface faces would leave two boundary
 /// edges between the same two vertices, which no half-edge mesh can hold.
 fn smoothest_pair(
-    run: &[(u64, u32)],
+    run: &[(u32, u32)],
     tris: &[[u32; 3]],
     positions: &[DVec3],
 ) -> Option<(u32, u32)> {
@@ -303,48 +302,27 @@ fn build(input: &TriMesh) -> Result<(Mesh, RepairReport), BuildError> {
     drop(vmap);
 
     // 4. Pair corners into edges. Corner c = 3f + k is the directed edge
-    // t[k] -> t[k+1]. Sorting corners by undirected key groups each edge.
+    // t[k] -> t[k+1]; the edge table groups the corners of each edge.
     let nf = tris.len();
     let corner_from = |c: usize, tris: &[[u32; 3]]| tris[c / 3][c % 3];
     let corner_to = |c: usize, tris: &[[u32; 3]]| tris[c / 3][(c % 3 + 1) % 3];
-    let undirected = |c: usize, tris: &[[u32; 3]]| {
-        let (a, b) = (corner_from(c, tris), corner_to(c, tris));
-        ((a.min(b) as u64) << 32) | a.max(b) as u64
-    };
-    let mut corners: Vec<(u64, u32)> = (0..(3 * nf) as u32)
-        .into_par_iter()
-        .map(|c| (undirected(c as usize, &tris), c))
-        .collect();
-    corners.par_sort_unstable();
     let mut partner = vec![NONE; 3 * nf];
-    let mut i = 0;
-    while i < corners.len() {
-        let key = corners[i].0;
-        let mut j = i + 1;
-        while j < corners.len() && corners[j].0 == key {
-            j += 1;
+    EdgeTable::new(&tris, positions.len()).for_each(|_, _, run| match *run {
+        [_] => {}
+        [(_, c1), (_, c2)] => {
+            partner[c1 as usize] = c2;
+            partner[c2 as usize] = c1;
         }
-        match j - i {
-            1 => {}
-            2 => {
-                let (c1, c2) = (corners[i].1, corners[i + 1].1);
-                partner[c1 as usize] = c2;
-                partner[c2 as usize] = c1;
-            }
-            n => {
-                report.non_manifold_edges += 1;
-                if n <= MAX_PAIRED_FAN {
-                    let run = &corners[i..j];
-                    if let Some((c1, c2)) = smoothest_pair(run, &tris, &positions) {
-                        partner[c1 as usize] = c2;
-                        partner[c2 as usize] = c1;
-                    }
+        _ => {
+            report.non_manifold_edges += 1;
+            if run.len() <= MAX_PAIRED_FAN {
+                if let Some((c1, c2)) = smoothest_pair(run, &tris, &positions) {
+                    partner[c1 as usize] = c2;
+                    partner[c2 as usize] = c1;
                 }
             }
         }
-        i = j;
-    }
-    drop(corners);
+    });
 
     // 5. Orientation by breadth-first search over paired corners: a pair
     // running the same direction means the two faces disagree.

@@ -36,7 +36,7 @@
 //! a torus tube has a negative k2. `k1 ≥ k2` by value; `dir1`, `dir2` are
 //! the unit principal directions, tangent to the sector normal.
 
-use crate::topology::{Csr, EdgeTable, UnionFind};
+use crate::topology::{corner_fans, Csr};
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -244,38 +244,27 @@ impl Topology {
             .collect();
         let vertex_of = |c: u32| tri[(c / 3) as usize][(c % 3) as usize];
 
-        // Equal runs of the edge table are the faces around one edge.
-        let edges = EdgeTable::new(tri, nv);
-
-        let mut sectors = UnionFind::new(3 * nf);
+        // Sectors are corner fans joined across smooth, consistently
+        // oriented edges; every other edge bounds a sector and is a curve.
         let mut curve_edges = Vec::new();
         let mut smooth_edges = Vec::new();
-        edges.for_each(|lo, hi, run| {
-            match *run {
-                [(_, h0), (_, h1)] => {
-                    // Consistently oriented neighbours traverse the edge
-                    // in opposite directions.
-                    let consistent = vertex_of(h0) != vertex_of(h1);
-                    let feature = is_feature_edge.is_some_and(|p| p(lo, hi));
-                    if feature {
-                        curve_edges.push([lo, hi]);
-                    } else if consistent {
-                        let at = |h: u32, v: u32| {
-                            if vertex_of(h) == v {
-                                h
-                            } else {
-                                next(h)
-                            }
-                        };
-                        sectors.union(at(h0, lo), at(h1, lo));
-                        sectors.union(at(h0, hi), at(h1, hi));
-                        smooth_edges.push([lo, hi, h0 / 3, h1 / 3]);
-                    }
+        let sectors = corner_fans(tri, nv, |lo, hi, run| match *run {
+            [(_, h0), (_, h1)] => {
+                if is_feature_edge.is_some_and(|p| p(lo, hi)) {
+                    curve_edges.push([lo, hi]);
+                    false
+                } else if vertex_of(h0) != vertex_of(h1) {
+                    smooth_edges.push([lo, hi, h0 / 3, h1 / 3]);
+                    true
+                } else {
+                    false
                 }
-                _ => curve_edges.push([lo, hi]),
+            }
+            _ => {
+                curve_edges.push([lo, hi]);
+                false
             }
         });
-        drop(edges);
 
         // Corners grouped by vertex, then by union-find root (= sector).
         let (vertex_corner_start, mut corners) = Csr::from_pairs(nv, || {

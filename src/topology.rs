@@ -141,6 +141,37 @@ impl EdgeTable {
     }
 }
 
+/// Groups the corners of `triangles` (corner `3·face + k`) into fans: the
+/// corners at one vertex, joined across edges. `visit(a, b, half_edges)` sees
+/// every edge of the [`EdgeTable`] once, in order, and says whether to join
+/// across it; the join happens only where the edge has exactly two faces
+/// running it in opposite directions (an interior, consistently oriented
+/// edge), since only then does each end have one corner on either side.
+/// A fan is then one union-find class.
+pub fn corner_fans(
+    triangles: &[[u32; 3]],
+    vertex_count: usize,
+    mut visit: impl FnMut(u32, u32, &[(u32, u32)]) -> bool,
+) -> UnionFind {
+    let from = |h: u32| triangles[(h / 3) as usize][(h % 3) as usize];
+    let next = |c: u32| 3 * (c / 3) + (c % 3 + 1) % 3;
+    let mut fans = UnionFind::new(triangles.len() * 3);
+    EdgeTable::new(triangles, vertex_count).for_each(|a, b, run| {
+        if !visit(a, b, run) {
+            return;
+        }
+        if let [(_, h0), (_, h1)] = *run {
+            if from(h0) != from(h1) {
+                // h0 and h1 start at opposite ends; the corner after each
+                // is the other's start.
+                fans.union(h0, next(h1));
+                fans.union(next(h0), h1);
+            }
+        }
+    });
+    fans
+}
+
 /// Disjoint-set forest with path halving; a union keeps the smaller root,
 /// so every class's root is its smallest member whatever the order of the
 /// unions, and results built from roots are deterministic.

@@ -13,7 +13,7 @@
 //! is expected to share vertices (welded); an unwelded soup gets flat
 //! shading, because no edge is interior.
 
-use crate::topology::{Csr, UnionFind};
+use crate::topology::corner_fans;
 use std::collections::HashSet;
 
 use glam::DVec3;
@@ -67,50 +67,26 @@ pub fn with_split_normals(
         })
         .collect();
 
-    // Outgoing edges per vertex (CSR): corner c stands for the edge from
-    // its vertex to the next corner's vertex.
-    let head = |c: usize| tris[c / 3][c % 3];
-    let tail = |c: usize| tris[c / 3][(c % 3 + 1) % 3];
-    let outgoing = Csr::from_pairs(n, || (0..corners).map(|c| (head(c), c as u32)));
-    let out_of = |v: u32| outgoing.row(v);
-
     let sharp: HashSet<u64> = extra_sharp_edges
         .iter()
         .map(|&[a, b]| edge_key(a, b))
         .collect();
     let cos_crease = crease_angle_deg.to_radians().cos();
-    // Smooth interior edges as (corner a->b, corner b->a), each once (from
-    // the side with a < b). An edge is interior only when exactly one face
-    // runs a->b and exactly one runs b->a.
-    let pairs: Vec<(u32, u32)> = (0..corners)
-        .into_par_iter()
-        .filter_map(|c| {
-            let (a, b) = (head(c), tail(c));
-            if a >= b || sharp.contains(&edge_key(a, b)) {
-                return None;
-            }
-            let forward = out_of(a).iter().filter(|&&e| tail(e as usize) == b).count();
-            let mut back = out_of(b).iter().filter(|&&e| tail(e as usize) == a);
-            let (Some(&twin), None) = (back.next(), back.next()) else {
-                return None;
-            };
-            let (f1, f2) = (c / 3, twin as usize / 3);
-            if forward != 1 || f1 == f2 || mesh.face_label(f1) != mesh.face_label(f2) {
-                return None;
-            }
-            let (n1, n2) = (per_face[f1].1, per_face[f2].1);
-            // A degenerate face has no normal to compare; it contributes no
-            // weight either, so joining across it is harmless.
-            let flat_enough = n1 == DVec3::ZERO || n2 == DVec3::ZERO || n1.dot(n2) >= cos_crease;
-            flat_enough.then_some((c as u32, twin))
-        })
-        .collect();
-    let mut fans = UnionFind::new(corners);
-    let next = |c: u32| 3 * (c / 3) + (c % 3 + 1) % 3;
-    for &(c, twin) in &pairs {
-        fans.union(c, next(twin)); // the two corners at a
-        fans.union(next(c), twin); // the two corners at b
-    }
+    // Corners are joined across smooth interior edges: not marked sharp,
+    // between faces of one label, and bending less than the crease angle.
+    let mut fans = corner_fans(tris, n, |a, b, run| {
+        let [(_, h0), (_, h1)] = *run else {
+            return false;
+        };
+        let (f1, f2) = ((h0 / 3) as usize, (h1 / 3) as usize);
+        if sharp.contains(&edge_key(a, b)) || mesh.face_label(f1) != mesh.face_label(f2) {
+            return false;
+        }
+        let (n1, n2) = (per_face[f1].1, per_face[f2].1);
+        // A degenerate face has no normal to compare; it contributes no
+        // weight either, so joining across it is harmless.
+        n1 == DVec3::ZERO || n2 == DVec3::ZERO || n1.dot(n2) >= cos_crease
+    });
 
     // Number the classes: the first class met at a vertex keeps its index.
     let mut class_vertex = vec![u32::MAX; corners];

@@ -100,7 +100,7 @@ struct RemeshArgs {
     /// Same as `--sizing adaptive`.
     #[arg(long)]
     adaptive: bool,
-    /// Uniform sizing: shorten edges down to 3/4 L where the surface bends
+    /// Uniform sizing: shorten edges down to 9/10 L where the surface bends
     /// too tightly for edges of L (default true).
     #[arg(long)]
     refine_curved: Option<bool>,

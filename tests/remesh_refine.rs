@@ -36,8 +36,9 @@ fn refinement_lowers_the_distance_and_keeps_the_band() {
     let (range_off, off) = run(false);
     let (range_on, on) = run(true);
     assert_eq!(range_off, [l, l]);
+    // Refinement lowers the target, but never to the collapse bound 4/5·L.
     assert!(
-        range_on[0] >= 0.75 * l - 1e-12 && range_on[0] < 0.8 * l,
+        range_on[0] >= 0.9 * l - 1e-12 && range_on[0] < l,
         "{range_on:?}"
     );
     assert_eq!(range_on[1], l);
@@ -62,7 +63,7 @@ fn refinement_lowers_the_distance_and_keeps_the_band() {
     );
     assert!(h(&on) < h(&off), "hausdorff {} -> {}", h(&off), h(&on));
     assert!(
-        rms(&on) < 0.95 * rms(&off),
+        rms(&on) < 0.98 * rms(&off),
         "rms {} -> {}",
         rms(&off),
         rms(&on)

@@ -67,7 +67,7 @@ pub(super) fn collapse_short_edges(st: &mut State, cancel: &Cancel) -> Result<u6
     // index order, re-checking each one, so the result stays deterministic.
     let candidates: Vec<u32> = st.par_edges(|e| {
         let [a, b] = st.mesh.edge_vertices(e);
-        (st.mesh.position(a).distance(st.mesh.position(b)) < COLLAPSE_FACTOR * st.edge_target(a, b))
+        (st.mesh.position(a).distance(st.mesh.position(b)) < COLLAPSE_FACTOR * st.collapse_target(a, b))
             .then_some(e.0)
     });
     for (k, &i) in candidates.iter().enumerate() {
@@ -78,7 +78,7 @@ pub(super) fn collapse_short_edges(st: &mut State, cancel: &Cancel) -> Result<u6
         }
         let [a, b] = st.mesh.edge_vertices(e);
         let len = st.mesh.position(a).distance(st.mesh.position(b));
-        if len >= COLLAPSE_FACTOR * st.edge_target(a, b) {
+        if len >= COLLAPSE_FACTOR * st.collapse_target(a, b) {
             continue;
         }
         let mut best: Option<(f64, HalfedgeId, DVec3)> = None;
@@ -94,7 +94,7 @@ pub(super) fn collapse_short_edges(st: &mut State, cancel: &Cancel) -> Result<u6
         // square of the length (1.15² ≈ 1.32).
         let stretch = if symmetric
             && st.uniform.is_some()
-            && len < VERY_SHORT * st.edge_target(a, b)
+            && len < VERY_SHORT * st.collapse_target(a, b)
             && away_from_features(st, a, b)
         {
             VERY_SHORT_STRETCH

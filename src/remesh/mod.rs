@@ -212,7 +212,7 @@ pub struct RemeshReport {
     /// length, also with `refine_curved`); the mean target under adaptive sizing.
     pub target_edge_length: f64,
     /// Smallest and largest target length. Under uniform sizing they are L
-    /// and L, or down to 3/4·L where `refine_curved` shortens edges on tight
+    /// and L, or down to 9/10·L where `refine_curved` shortens edges on tight
     /// curves.
     pub target_range: [f64; 2],
     /// Feature edges found on the input.

@@ -89,7 +89,7 @@ pub struct RemeshOptions {
     pub min_crease_length: f64,
     /// Uniform or adaptive sizing. Default uniform.
     pub sizing: Sizing,
-    /// Uniform sizing: shorten edges, down to 3/4·L, where the surface bends
+    /// Uniform sizing: shorten edges, down to 9/10·L, where the surface bends
     /// so tightly that edges of length L would cut it by more than 2/15·L
     /// (curvature, sub-feature creases and cones, as in adaptive sizing),
     /// graded by `gradation`. Edges stay in the band [4/5·L, 4/3·L] nearly

@@ -4,7 +4,10 @@
 //! hints and target size, and each edge's feature line, all carried along
 //! when the mesh is renumbered for locality. Uniform sizing with
 //! `refine_curved` builds the adaptive field of [`crate::sizing`] at the
-//! chord tolerance [`CURVED_TOLERANCE`]·L, clamped to [3/4·L, L].
+//! chord tolerance [`CURVED_TOLERANCE`]·L, clamped to [`CURVED_MIN_EDGE`]·L, L].
+//! Under uniform sizing the collapse threshold stays at 4/5·L whatever the
+//! local target ([`State::collapse_target`]): refinement may shorten edges,
+//! but never below the band's lower bound; finer is adaptive sizing.
 
 use std::sync::Arc;
 
@@ -224,6 +227,15 @@ impl State {
         0.5 * (self.size[a.idx()] + self.size[b.idx()])
     }
 
+    /// The length below which edge `a`–`b` is collapsed, over
+    /// [`COLLAPSE_FACTOR`]: L under uniform sizing (a uniform remesh gives
+    /// edges of at least 4/5·L, also where curvature refinement lowered the
+    /// target), the local target under adaptive sizing.
+    #[inline]
+    pub fn collapse_target(&self, a: VertexId, b: VertexId) -> f64 {
+        self.uniform.unwrap_or_else(|| self.edge_target(a, b))
+    }
+
     /// Runs `f` on every live edge in parallel, in the worker pool, and
     /// returns the `Some` results in edge order (the candidate scans of the
     /// topological passes).
@@ -331,8 +343,10 @@ impl State {
 /// Chord tolerance of uniform sizing's curvature refinement, in units of L:
 /// 2/15, which is 0.1 % of the diagonal at the bench's L = 0.75 %.
 pub(super) const CURVED_TOLERANCE: f64 = 2.0 / 15.0;
-/// Shortest target of the curvature refinement, in units of L.
-pub(super) const CURVED_MIN_EDGE: f64 = 0.75;
+/// Shortest target of the curvature refinement, in units of L: between the
+/// collapse bound 4/5·L and L, with room above the bound so that relaxation
+/// does not push refined edges under it (see `docs/tuning.md`).
+pub(super) const CURVED_MIN_EDGE: f64 = 0.9;
 
 /// What prepare derives from the input beside the spatial index: the
 /// features to keep, the sizing and the per-vertex kinds and hints.

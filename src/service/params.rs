@@ -57,7 +57,7 @@ pub struct JobParams {
     pub min_crease_length: f64,
     /// `uniform` or `adaptive`.
     pub sizing: Sizing,
-    /// Uniform sizing: shorten edges down to 3/4·L on tight curves.
+    /// Uniform sizing: shorten edges down to 9/10·L on tight curves.
     #[serde(default = "default_refine_curved")]
     pub refine_curved: bool,
     /// Adaptive sizing: absolute tolerance.

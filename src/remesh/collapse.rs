@@ -67,8 +67,9 @@ pub(super) fn collapse_short_edges(st: &mut State, cancel: &Cancel) -> Result<u6
     // index order, re-checking each one, so the result stays deterministic.
     let candidates: Vec<u32> = st.par_edges(|e| {
         let [a, b] = st.mesh.edge_vertices(e);
-        (st.mesh.position(a).distance(st.mesh.position(b)) < COLLAPSE_FACTOR * st.collapse_target(a, b))
-            .then_some(e.0)
+        (st.mesh.position(a).distance(st.mesh.position(b))
+            < COLLAPSE_FACTOR * st.collapse_target(a, b))
+        .then_some(e.0)
     });
     for (k, &i) in candidates.iter().enumerate() {
         cancel.every(k as u64)?;

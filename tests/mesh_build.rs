@@ -86,29 +86,6 @@ fn edge_shared_by_three_faces_becomes_boundary_edges() {
 }
 
 #[test]
-fn a_fin_on_a_closed_surface_leaves_the_surface_joined() {
-    // A face and its reverse standing on an edge of a sphere: one is dropped
-    // as a duplicate, and the edge then carries three faces. The two sphere
-    // faces, which continue one surface, must stay joined; cut apart they
-    // would leave two boundary edges between the same two vertices.
-    let mut m = shapes::icosphere(2);
-    let [a, b, _] = m.triangles[0];
-    let mid = (m.positions[a as usize] + m.positions[b as usize]) * 0.5;
-    let tip = m.positions.len() as u32;
-    m.positions.push(mid * 1.5);
-    m.triangles.push([a, tip, b]);
-    m.triangles.push([b, tip, a]);
-    let (mesh, report) = build(&m);
-    assert_eq!(report.duplicate_faces, 1);
-    assert_eq!(report.non_manifold_edges, 1);
-    let sphere_faces = m.triangles.len() - 2;
-    assert_eq!(mesh.face_count(), sphere_faces + 1);
-    // The sphere keeps no boundary; only the fin, cut free, has one.
-    assert_eq!(mesh.boundary_loop_count(), 1);
-    assert_eq!(mesh.euler_characteristic(), 2 + 1);
-}
-
-#[test]
 fn bowtie_vertex_is_split_into_one_vertex_per_fan() {
     let positions = vec![
         DVec3::ZERO,

@@ -34,9 +34,7 @@ pub struct RepairReport {
     pub degenerate_faces: u64,
     /// Faces dropped because another face had the same three vertices.
     pub duplicate_faces: u64,
-    /// Edges shared by three or more faces. The two faces that continue one
-    /// surface across the edge stay joined; the others are cut free, their
-    /// sides on it becoming boundary edges.
+    /// Edges shared by three or more faces, cut into boundary edges.
     pub non_manifold_edges: u64,
     /// Vertices where separate fans met, split into one vertex per fan.
     pub non_manifold_vertices: u64,
@@ -164,44 +162,6 @@ fn check_scale(positions: &[DVec3]) -> Result<(), BuildError> {
     Ok(())
 }
 
-/// The most faces on one non-manifold edge among which a pair is chosen
-/// (the choice compares every pair).
-const MAX_PAIRED_FAN: usize = 8;
-
-/// Of the faces on one non-manifold edge (their corners `run`, each the
-/// directed edge `t[k] -> t[k+1]` of its face), the two that run it in
-/// opposite directions and whose normals agree best: the pair that
-/// continues one surface across the edge, which stays joined while the
-/// other faces are cut free. Keeping one pair matters where the extra face
-/// is a fin (a face and its reverse, one of which was dropped as a
-/// duplicate): cut apart, the two surface faces would leave two boundary
-/// edges between the same two vertices, which no half-edge mesh can hold.
-fn smoothest_pair(
-    run: &[(u32, u32)],
-    tris: &[[u32; 3]],
-    positions: &[DVec3],
-) -> Option<(u32, u32)> {
-    let normal = |c: u32| {
-        let t = tris[(c / 3) as usize];
-        let p = t.map(|v| positions[v as usize]);
-        (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero()
-    };
-    let from = |c: u32| tris[(c / 3) as usize][(c % 3) as usize];
-    let mut best: Option<(f64, u32, u32)> = None;
-    for (x, &(_, c1)) in run.iter().enumerate() {
-        for &(_, c2) in &run[x + 1..] {
-            if from(c1) == from(c2) {
-                continue;
-            }
-            let agree = normal(c1).dot(normal(c2));
-            if best.is_none_or(|(b, _, _)| agree > b) {
-                best = Some((agree, c1, c2));
-            }
-        }
-    }
-    best.map(|(_, c1, c2)| (c1, c2))
-}
-
 fn build(input: &TriMesh) -> Result<(Mesh, RepairReport), BuildError> {
     let n = input.positions.len();
     if n >= NONE as usize || input.triangles.len() * 3 >= (NONE as usize) / 2 {
@@ -313,15 +273,7 @@ fn build(input: &TriMesh) -> Result<(Mesh, RepairReport), BuildError> {
             partner[c1 as usize] = c2;
             partner[c2 as usize] = c1;
         }
-        _ => {
-            report.non_manifold_edges += 1;
-            if run.len() <= MAX_PAIRED_FAN {
-                if let Some((c1, c2)) = smoothest_pair(run, &tris, &positions) {
-                    partner[c1 as usize] = c2;
-                    partner[c2 as usize] = c1;
-                }
-            }
-        }
+        _ => report.non_manifold_edges += 1,
     });
 
     // 5. Orientation by breadth-first search over paired corners: a pair

@@ -18,6 +18,7 @@
 //! | [`appearance`] | per-vertex texture coordinates and colours, and the textures and images a mesh's materials use |
 //! | [`transfer`] | attribute transfer onto the remeshed surface: seams, wedges, chart-bound walks |
 //! | [`reference`] | the per-job [`reference::Reference`]: the input as read, repaired, indexed, welded and feature-detected once for the remesher and the statistics |
+//! | [`params`] | the remesh parameters as callers give them, declared once for the CLI flags, the service and the job record; they convert into [`remesh::RemeshOptions`] |
 //! | [`pipeline`] | a whole job on bytes: detect, read, repair, remesh, measure, encode |
 //! | [`shapes`] | icosphere, torus, cylinder, cube and other shapes generated in code |
 //! | [`sizing`] | the adaptive sizing field: target edge lengths from a tolerance, clamped and gradation-limited |
@@ -33,6 +34,7 @@ pub mod features;
 pub mod geometry;
 pub mod io;
 pub mod mesh;
+pub mod params;
 pub mod pipeline;
 pub mod reference;
 pub mod remesh;

@@ -8,8 +8,9 @@ use std::process::ExitCode;
 
 use clap::{Args, Parser, Subcommand};
 use isoremesh::io::{Format, ReadOptions};
+use isoremesh::params::Params;
 use isoremesh::pipeline::{self, JobError};
-use isoremesh::remesh::{Observer, Progress, RemeshOptions, Sizing};
+use isoremesh::remesh::{Observer, Progress, Sizing, DEFAULT_MAX_OUTPUT_FACES};
 use isoremesh::stats::{self, StatsOptions};
 
 #[derive(Parser)]
@@ -65,68 +66,14 @@ struct RemeshArgs {
     input: PathBuf,
     /// The output file; its extension chooses the format.
     output: PathBuf,
-    /// Absolute target edge length.
-    #[arg(long, group = "target")]
-    target_edge_length: Option<f64>,
-    /// Target edge length as a fraction of the bounding-box diagonal.
-    #[arg(long, group = "target")]
-    target_edge_ratio: Option<f64>,
-    /// Approximate output face count.
-    #[arg(long, group = "target")]
-    target_faces: Option<u64>,
-    /// Iterations (default 10).
-    #[arg(long)]
-    iterations: Option<u32>,
-    /// Relaxation steps per iteration (default 1).
-    #[arg(long)]
-    relaxation_steps: Option<u32>,
-    /// Dihedral angle in degrees above which an edge is a sharp feature (default 45).
-    #[arg(long)]
-    feature_angle: Option<f64>,
-    /// Drop creases smaller than this many target lengths: isolated crease
-    /// fragments, short chains between free ends and junctions, and turns
-    /// that only wiggle next to another corner (default 1.5; 0 keeps all).
-    #[arg(long)]
-    min_crease_length: Option<f64>,
-    /// Keep sharp creases and corners (default true; boundaries are always kept).
-    #[arg(long, conflicts_with = "no_features")]
-    preserve_features: Option<bool>,
+    #[command(flatten)]
+    params: Params,
     /// Same as `--preserve-features false`.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "preserve_features")]
     no_features: bool,
-    /// `uniform` (default) or `adaptive` sizing from an approximation tolerance.
-    #[arg(long, value_parser = parse_sizing, conflicts_with = "adaptive")]
-    sizing: Option<Sizing>,
     /// Same as `--sizing adaptive`.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "sizing")]
     adaptive: bool,
-    /// Uniform sizing: shorten edges down to 9/10 L where the surface bends
-    /// too tightly for edges of L (default true).
-    #[arg(long)]
-    refine_curved: Option<bool>,
-    /// Adaptive sizing: absolute tolerance (default 0.1 % of the diagonal).
-    #[arg(long, conflicts_with = "tolerance_ratio")]
-    tolerance: Option<f64>,
-    /// Adaptive sizing: tolerance as a fraction of the bounding-box diagonal.
-    #[arg(long)]
-    tolerance_ratio: Option<f64>,
-    /// Adaptive sizing: smallest target length.
-    #[arg(long)]
-    min_edge_length: Option<f64>,
-    /// Adaptive sizing: largest target length.
-    #[arg(long)]
-    max_edge_length: Option<f64>,
-    /// Adaptive sizing: gradation g in h(v) <= h(u) + g |uv|.
-    #[arg(long)]
-    gradation: Option<f64>,
-    /// Output format (default: from OUTPUT's extension).
-    #[arg(long)]
-    output_format: Option<Format>,
-    /// Write per-element quality into the output (glTF, GLB or PLY only):
-    /// per face the smallest angle and the edge-length ratio to the local
-    /// target, per vertex the valence.
-    #[arg(long)]
-    quality_attributes: bool,
     /// Worker threads (default: all cores). The output does not depend on it.
     #[arg(long)]
     threads: Option<usize>,
@@ -136,11 +83,6 @@ struct RemeshArgs {
     /// Override the format detection of INPUT.
     #[arg(long)]
     format: Option<Format>,
-}
-
-fn parse_sizing(s: &str) -> Result<Sizing, String> {
-    serde_json::from_value(serde_json::Value::String(s.to_ascii_lowercase()))
-        .map_err(|_| format!("{s:?} is not a sizing; use uniform or adaptive"))
 }
 
 /// A failure, already phrased as the one line the user sees.
@@ -246,7 +188,12 @@ impl Observer for Bar {
 }
 
 fn remesh_command(a: RemeshArgs) -> Result<(), Failure> {
-    let out_format = match a.output_format {
+    let mut params = a.params;
+    params.preserve_features &= !a.no_features;
+    if a.adaptive {
+        params.sizing = Sizing::Adaptive;
+    }
+    let out_format = match params.output_format {
         Some(f) => f,
         None => Format::from_extension(&a.output.to_string_lossy()).ok_or_else(|| {
             fail(
@@ -255,44 +202,9 @@ fn remesh_command(a: RemeshArgs) -> Result<(), Failure> {
             )
         })?,
     };
-    let mut o = RemeshOptions {
-        target_edge_length: a.target_edge_length,
-        target_edge_ratio: a.target_edge_ratio,
-        target_faces: a.target_faces,
-        preserve_features: a.preserve_features.unwrap_or(!a.no_features),
-        threads: a.threads,
-        tolerance: a.tolerance,
-        tolerance_ratio: a.tolerance_ratio,
-        min_edge_length: a.min_edge_length,
-        max_edge_length: a.max_edge_length,
-        quality_attributes: a.quality_attributes,
-        ..Default::default()
-    };
-    if let Some(n) = a.iterations {
-        o.iterations = n;
-    }
-    if let Some(n) = a.relaxation_steps {
-        o.relaxation_steps = n;
-    }
-    if let Some(d) = a.feature_angle {
-        o.feature_angle = d;
-    }
-    if let Some(m) = a.min_crease_length {
-        o.min_crease_length = m;
-    }
-    if let Some(s) = a.sizing {
-        o.sizing = s;
-    }
-    if a.adaptive {
-        o.sizing = Sizing::Adaptive;
-    }
-    if let Some(g) = a.gradation {
-        o.gradation = g;
-    }
-    if let Some(r) = a.refine_curved {
-        o.refine_curved = r;
-    }
-    o.validate().map_err(|e| Failure(e.to_string()))?;
+    let o = params
+        .to_options(a.threads, DEFAULT_MAX_OUTPUT_FACES)
+        .map_err(|e| Failure(e.to_string()))?;
     if o.quality_attributes && !out_format.stores_attributes() {
         return Err(fail(
             &a.output,

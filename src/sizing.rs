@@ -42,10 +42,8 @@
 //! |δ|. On an input that samples a smooth surface finely (θ ≈ κ·ℓ_in,
 //! δ ≈ K·area) both bounds grow like `ε/(κ ℓ_in)` and bind only where the
 //! input edges ℓ_in are longer than about half of the smooth bound, i.e.
-//! where the input is as coarse as the output. Measured on spot, the bunny
-//! and fertility (facets 1–2× the output edges, creases of 20–45°), these
-//! creases were where the distance peaked (4–6 ε without the bounds,
-//! ≤ 2 ε with them).
+//! where the input is as coarse as the output, which is where the distance
+//! peaks without them (figures in `docs/tuning.md`).
 //!
 //! # Gradation
 //!

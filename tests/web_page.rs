@@ -305,7 +305,7 @@ fn the_form_defaults_come_from_the_api_types() {
     let s = Server::start(config(dir.path()));
     let (status, v) = s.get_json("/assets/defaults.json");
     assert_eq!(status, 200);
-    let defaults = isoremesh::service::params::JobParams::default();
+    let defaults = isoremesh::params::Params::default();
     assert_eq!(v["params"], serde_json::to_value(&defaults).unwrap());
     let formats: Vec<&str> = Format::ALL.iter().map(|f| f.extension()).collect();
     assert_eq!(v["formats"], serde_json::json!(formats));

@@ -16,11 +16,7 @@ pub const DEFAULT_RELAXATION_STEPS: u32 = 1;
 /// dropped crease is one that could carry at most one output edge and would
 /// only pin its two ends as corners. Bridges between two junctions keep
 /// their own threshold, 4/5 of the target (a box's short edge between two
-/// corners stays). Measured on the shared meshes at the bench length: 0.8
-/// left igea at 0.110 % of triangles below 30° and camelhead at 0.279 %;
-/// 1.5 gives 0.058 % and 0.207 %. At 1.6 spot's Hausdorff distance jumps
-/// (1.44 → 2.44 ‰), as two 48° creases of its coarse input, 1.57·L long,
-/// are then dropped.
+/// corners stays). Measurements behind the value: `docs/tuning.md`.
 pub const DEFAULT_MIN_CREASE_LENGTH: f64 = 1.5;
 /// Default gradation of adaptive sizing: h(v) ≤ h(u) + g·|uv|.
 pub const DEFAULT_GRADATION: f64 = crate::sizing::DEFAULT_GRADATION;
@@ -38,6 +34,28 @@ pub enum Sizing {
     /// Short edges where curvature is high, long where flat, bounded by a
     /// distance tolerance (Dunyach et al. 2013) and graded.
     Adaptive,
+}
+
+impl std::fmt::Display for Sizing {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Sizing::Uniform => "uniform",
+            Sizing::Adaptive => "adaptive",
+        })
+    }
+}
+
+impl std::str::FromStr for Sizing {
+    type Err = String;
+
+    /// Parses `uniform` or `adaptive`, case-insensitively.
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.to_ascii_lowercase().as_str() {
+            "uniform" => Ok(Sizing::Uniform),
+            "adaptive" => Ok(Sizing::Adaptive),
+            _ => Err(format!("{s:?} is not a sizing; use uniform or adaptive")),
+        }
+    }
 }
 
 /// Options of [`super::remesh`]. Construct with `Default` and the `with_*`
@@ -169,6 +187,31 @@ fn positive(field: &'static str, v: Option<f64>) -> Result<(), RemeshError> {
 }
 
 impl RemeshOptions {
+    /// The uniform target length L and the parameter that sets it: an
+    /// explicit length, the ratio times the diagonal, the length whose
+    /// equilateral triangles tile `area` in `target_faces`, or else the
+    /// input's mean edge length (`mean_edge`, evaluated only then). The
+    /// engine and the service's pre-queue estimate both resolve L here.
+    pub fn uniform_target(
+        &self,
+        diagonal: f64,
+        area: f64,
+        mean_edge: impl FnOnce() -> f64,
+    ) -> (f64, &'static str) {
+        if let Some(l) = self.target_edge_length {
+            (l, "target_edge_length")
+        } else if let Some(r) = self.target_edge_ratio {
+            (r * diagonal, "target_edge_ratio")
+        } else if let Some(f) = self.target_faces {
+            (
+                (area / (f as f64 * 3f64.sqrt() / 4.0)).sqrt(),
+                "target_faces",
+            )
+        } else {
+            (mean_edge(), "target_edge_length")
+        }
+    }
+
     /// Sets an absolute target edge length.
     pub fn with_target_edge_length(mut self, l: f64) -> Self {
         self.target_edge_length = Some(l);

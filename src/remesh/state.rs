@@ -524,18 +524,13 @@ fn adaptive_options(options: &RemeshOptions, diag: f64) -> SizingOptions {
 }
 
 fn uniform_target(mesh: &Mesh, o: &RemeshOptions, diag: f64, area: f64) -> f64 {
-    if let Some(l) = o.target_edge_length {
-        l
-    } else if let Some(r) = o.target_edge_ratio {
-        r * diag
-    } else if let Some(f) = o.target_faces {
-        (area / (f as f64 * 3f64.sqrt() / 4.0)).sqrt()
-    } else {
+    o.uniform_target(diag, area, || {
         let (sum, n) = mesh
             .edges()
             .fold((0.0, 0usize), |(s, n), e| (s + mesh.edge_length(e), n + 1));
         sum / n.max(1) as f64
-    }
+    })
+    .0
 }
 
 fn check_estimate(area: f64, l: f64, limit: u64) -> Result<(), RemeshError> {

@@ -5,10 +5,10 @@
 use serde::{Deserialize, Serialize};
 
 use super::jobs::{rfc3339, JobRecord, JobStatus};
-use super::params::JobParams;
 use super::problem::Problem;
 use crate::io::Format;
 use crate::mesh::RepairReport;
+use crate::params::Params;
 use crate::pipeline::JobStats;
 use crate::remesh::Progress;
 
@@ -82,7 +82,7 @@ pub struct JobView {
     /// Times a worker started the job (more than 1 after a restart).
     pub attempts: u32,
     /// Normalised parameters.
-    pub params: JobParams,
+    pub params: Params,
     /// Input summary.
     pub input: InputView,
     /// Input and output statistics, once succeeded.

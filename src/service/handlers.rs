@@ -15,12 +15,13 @@ use sha2::{Digest, Sha256};
 
 use super::dto::{etag, job_href, Health, JobList, JobSummary, JobView};
 use super::jobs::{now_ms, CancelReason, Idempotency, InputInfo, Job, JobRecord, JobStatus};
-use super::params::{estimate_output, InputGeometry, JobParams};
+use super::params::{estimate_output, InputGeometry};
 use super::problem::{Problem, ProblemKind};
 use super::server::{AppState, Service};
 use super::store::is_job_id;
 use super::upload::{read_upload, Upload};
 use crate::io::{Format, ReadOptions};
+use crate::params::Params;
 use crate::pipeline::{self, LoadedInput};
 
 /// The contract, served as is.
@@ -71,7 +72,7 @@ fn job_response(status: StatusCode, job: &Job, location: bool) -> Response {
 
 /// What validation of an upload produced.
 struct Checked {
-    params: JobParams,
+    params: Params,
     input: InputInfo,
     /// The parsed input, for the worker.
     loaded: LoadedInput,
@@ -81,7 +82,7 @@ struct Checked {
 fn check_upload(svc: &Service, up: &Upload) -> Result<Checked, Problem> {
     let cfg = &svc.config;
     let mut params = up.params.clone();
-    let options = params.to_options(cfg.threads_per_job(), cfg.max_output_triangles)?;
+    let options = params.job_options(cfg.threads_per_job(), cfg.max_output_triangles)?;
     let read = ReadOptions {
         external_buffers: up.buffers.iter().cloned().collect(),
         max_triangles: cfg.max_input_triangles,

@@ -14,11 +14,12 @@ use std::time::{SystemTime, UNIX_EPOCH};
 
 use serde::{Deserialize, Serialize};
 
-use super::params::{InputGeometry, JobParams};
+use super::params::InputGeometry;
 use super::prepared::Prepared;
 use super::problem::Problem;
 use crate::io::Format;
 use crate::mesh::RepairReport;
+use crate::params::Params;
 use crate::pipeline::JobStats;
 use crate::remesh::Progress;
 
@@ -136,7 +137,7 @@ pub struct JobRecord {
     /// Unix milliseconds the job and its result expire (set when finished).
     pub expires_ms: Option<u64>,
     /// The normalised parameters.
-    pub params: JobParams,
+    pub params: Params,
     /// The input summary.
     pub input: InputInfo,
     /// Progress when last persisted (final progress once finished).
@@ -507,7 +508,7 @@ mod tests {
             started_ms: None,
             finished_ms: None,
             expires_ms: None,
-            params: JobParams::default(),
+            params: Params::default(),
             input: InputInfo {
                 file_name: None,
                 format: Format::Obj,

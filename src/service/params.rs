@@ -1,8 +1,7 @@
-//! Job parameters as callers send them: the same names ([`PARAM_NAMES`]) in
-//! the `params` multipart part (JSON), the query string of a raw-body upload
-//! and the CLI's long flags. They convert into [`RemeshOptions`], never the
-//! reverse; an unknown name, a mistyped value or an option the engine rejects
-//! is a 422 naming the field. The output estimate that guards memory,
+//! Job parameters as the service receives them: [`Params`] read strictly
+//! from the `params` multipart part (JSON) or the query string of a raw-body
+//! upload. An unknown or repeated name, a mistyped value or an option the
+//! engine rejects is a 422 naming the field. The output estimate that guards memory,
 //! area / (√3/4 · L²), is checked here before a job is queued.
 
 use serde::{Deserialize, Serialize};
@@ -10,106 +9,9 @@ use serde_json::{Map, Value};
 
 use super::problem::{Problem, ProblemKind};
 use crate::io::Format;
-use crate::remesh::{RemeshOptions, Sizing};
+use crate::params::{Params, PARAM_NAMES};
+use crate::remesh::{RemeshError, RemeshOptions, Sizing};
 use crate::sizing::{DEFAULT_MIN_EDGE_FACTOR, DEFAULT_RELATIVE_TOLERANCE};
-
-/// Every accepted parameter name.
-pub const PARAM_NAMES: [&str; 17] = [
-    "target_edge_length",
-    "target_edge_ratio",
-    "target_faces",
-    "iterations",
-    "relaxation_steps",
-    "preserve_features",
-    "feature_angle",
-    "min_crease_length",
-    "sizing",
-    "refine_curved",
-    "tolerance",
-    "tolerance_ratio",
-    "min_edge_length",
-    "max_edge_length",
-    "gradation",
-    "output_format",
-    "quality_attributes",
-];
-
-/// The normalised parameters of a job: defaults filled in and, once the
-/// input is read, `output_format` resolved to the input's format if absent.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct JobParams {
-    /// Absolute target edge length.
-    pub target_edge_length: Option<f64>,
-    /// Target edge length as a fraction of the bounding-box diagonal.
-    pub target_edge_ratio: Option<f64>,
-    /// Approximate output face count.
-    pub target_faces: Option<u64>,
-    /// Outer iterations.
-    pub iterations: u32,
-    /// Relaxation + projection steps per iteration.
-    pub relaxation_steps: u32,
-    /// Keep sharp creases and corners.
-    pub preserve_features: bool,
-    /// Dihedral angle in degrees above which an edge is sharp.
-    pub feature_angle: f64,
-    /// Creases smaller than this many target lengths are dropped.
-    #[serde(default = "default_min_crease_length")]
-    pub min_crease_length: f64,
-    /// `uniform` or `adaptive`.
-    pub sizing: Sizing,
-    /// Uniform sizing: shorten edges down to 9/10·L on tight curves.
-    #[serde(default = "default_refine_curved")]
-    pub refine_curved: bool,
-    /// Adaptive sizing: absolute tolerance.
-    pub tolerance: Option<f64>,
-    /// Adaptive sizing: tolerance as a fraction of the bounding-box diagonal.
-    pub tolerance_ratio: Option<f64>,
-    /// Adaptive sizing: smallest target length.
-    pub min_edge_length: Option<f64>,
-    /// Adaptive sizing: largest target length.
-    pub max_edge_length: Option<f64>,
-    /// Adaptive sizing: gradation.
-    pub gradation: f64,
-    /// Output format (default: the input's).
-    pub output_format: Option<Format>,
-    /// Write per-element quality attributes into the result (glTF, GLB or
-    /// PLY output); default false.
-    #[serde(default)]
-    pub quality_attributes: bool,
-}
-
-impl Default for JobParams {
-    fn default() -> Self {
-        let o = RemeshOptions::default();
-        Self {
-            target_edge_length: None,
-            target_edge_ratio: None,
-            target_faces: None,
-            iterations: o.iterations,
-            relaxation_steps: o.relaxation_steps,
-            preserve_features: o.preserve_features,
-            feature_angle: o.feature_angle,
-            min_crease_length: o.min_crease_length,
-            sizing: o.sizing,
-            refine_curved: o.refine_curved,
-            tolerance: None,
-            tolerance_ratio: None,
-            min_edge_length: None,
-            max_edge_length: None,
-            gradation: o.gradation,
-            output_format: None,
-            quality_attributes: false,
-        }
-    }
-}
-
-fn default_min_crease_length() -> f64 {
-    RemeshOptions::default().min_crease_length
-}
-
-fn default_refine_curved() -> bool {
-    RemeshOptions::default().refine_curved
-}
 
 fn bad(field: &str, message: impl std::fmt::Display) -> Problem {
     Problem::new(ProblemKind::InvalidParameter, format!("{field}: {message}")).with_field(field)
@@ -119,7 +21,7 @@ fn typed<T: serde::de::DeserializeOwned>(field: &str, v: &Value) -> Result<T, Pr
     T::deserialize(v).map_err(|e| bad(field, e))
 }
 
-impl JobParams {
+impl Params {
     /// Parameters from a JSON object (the `params` part). `null` means "use
     /// the default".
     pub fn from_json(v: &Value) -> Result<Self, Problem> {
@@ -169,7 +71,7 @@ impl JobParams {
     }
 
     fn from_map(map: &Map<String, Value>) -> Result<Self, Problem> {
-        let mut p = JobParams::default();
+        let mut p = Params::default();
         for (k, v) in map {
             if v.is_null() {
                 if !PARAM_NAMES.contains(&k.as_str()) {
@@ -204,39 +106,19 @@ impl JobParams {
         Ok(p)
     }
 
-    /// The engine's options, validated. `threads` and `max_output_faces`
-    /// come from the service's configuration, not from the caller.
-    pub fn to_options(
+    /// The engine's options, validated, with a refused option as a 422
+    /// naming it. `threads` and `max_output_faces` come from the service's
+    /// configuration, not from the caller.
+    pub fn job_options(
         &self,
         threads: usize,
         max_output_faces: u64,
     ) -> Result<RemeshOptions, Problem> {
-        let o = RemeshOptions {
-            target_edge_length: self.target_edge_length,
-            target_edge_ratio: self.target_edge_ratio,
-            target_faces: self.target_faces,
-            iterations: self.iterations,
-            relaxation_steps: self.relaxation_steps,
-            preserve_features: self.preserve_features,
-            feature_angle: self.feature_angle,
-            min_crease_length: self.min_crease_length,
-            sizing: self.sizing,
-            refine_curved: self.refine_curved,
-            tolerance: self.tolerance,
-            tolerance_ratio: self.tolerance_ratio,
-            min_edge_length: self.min_edge_length,
-            max_edge_length: self.max_edge_length,
-            gradation: self.gradation,
-            quality_attributes: self.quality_attributes,
-            threads: Some(threads.max(1)),
-            max_output_faces,
-            ..RemeshOptions::default()
-        };
-        o.validate().map_err(|e| match e {
-            crate::remesh::RemeshError::InvalidOption { field, message } => bad(field, message),
-            other => bad("params", other),
-        })?;
-        Ok(o)
+        self.to_options(Some(threads.max(1)), max_output_faces)
+            .map_err(|e| match e {
+                RemeshError::InvalidOption { field, message } => bad(field, message),
+                other => bad("params", other),
+            })
     }
 }
 
@@ -343,20 +225,7 @@ pub struct Estimate {
 /// longer edges; the engine re-checks with the real field before it allocates.
 pub fn estimate_output(g: &InputGeometry, o: &RemeshOptions) -> Estimate {
     let (l, field) = match o.sizing {
-        Sizing::Uniform => {
-            if let Some(l) = o.target_edge_length {
-                (l, "target_edge_length")
-            } else if let Some(r) = o.target_edge_ratio {
-                (r * g.bbox_diagonal, "target_edge_ratio")
-            } else if let Some(f) = o.target_faces {
-                (
-                    (g.area / (f as f64 * 3f64.sqrt() / 4.0)).sqrt(),
-                    "target_faces",
-                )
-            } else {
-                (g.mean_edge_length, "target_edge_length")
-            }
-        }
+        Sizing::Uniform => o.uniform_target(g.bbox_diagonal, g.area, || g.mean_edge_length),
         Sizing::Adaptive => match o.min_edge_length {
             Some(a) => (a, "min_edge_length"),
             None => {
@@ -388,53 +257,52 @@ mod tests {
     #[test]
     fn query_values_take_their_types() {
         let q = |k: &str, v: &str| vec![(k.to_string(), v.to_string())];
-        let p = JobParams::from_query(&q("iterations", "3")).unwrap();
+        let p = Params::from_query(&q("iterations", "3")).unwrap();
         assert_eq!(p.iterations, 3);
-        let p = JobParams::from_query(&q("sizing", "adaptive")).unwrap();
+        let p = Params::from_query(&q("sizing", "adaptive")).unwrap();
         assert_eq!(p.sizing, Sizing::Adaptive);
-        let p = JobParams::from_query(&q("output_format", "STL")).unwrap();
+        let p = Params::from_query(&q("output_format", "STL")).unwrap();
         assert_eq!(p.output_format, Some(Format::Stl));
-        let p = JobParams::from_query(&q("preserve_features", "false")).unwrap();
+        let p = Params::from_query(&q("preserve_features", "false")).unwrap();
         assert!(!p.preserve_features);
     }
 
     #[test]
     fn every_problem_names_its_field() {
-        let e = JobParams::from_json(&serde_json::json!({"iterations": "many"})).unwrap_err();
+        let e = Params::from_json(&serde_json::json!({"iterations": "many"})).unwrap_err();
         assert_eq!(e.field.as_deref(), Some("iterations"));
-        let e = JobParams::from_json(&serde_json::json!({"threads": 4})).unwrap_err();
+        let e = Params::from_json(&serde_json::json!({"threads": 4})).unwrap_err();
         assert_eq!(e.field.as_deref(), Some("threads"));
         assert_eq!(e.status, 422);
-        let e = JobParams::from_json(&serde_json::json!({"sizing": "fancy"})).unwrap_err();
+        let e = Params::from_json(&serde_json::json!({"sizing": "fancy"})).unwrap_err();
         assert_eq!(e.field.as_deref(), Some("sizing"));
-        let e = JobParams::from_json(&serde_json::json!({"output_format": "fbx"})).unwrap_err();
+        let e = Params::from_json(&serde_json::json!({"output_format": "fbx"})).unwrap_err();
         assert_eq!(e.field.as_deref(), Some("output_format"));
-        let p = JobParams::from_json(&serde_json::json!({"gradation": -1.0})).unwrap();
-        let e = p.to_options(1, 100).unwrap_err();
+        let p = Params::from_json(&serde_json::json!({"gradation": -1.0})).unwrap();
+        let e = p.job_options(1, 100).unwrap_err();
         assert_eq!(e.field.as_deref(), Some("gradation"));
         let dup = vec![
             ("iterations".into(), "1".into()),
             ("iterations".into(), "2".into()),
         ];
         assert_eq!(
-            JobParams::from_query(&dup).unwrap_err().field.as_deref(),
+            Params::from_query(&dup).unwrap_err().field.as_deref(),
             Some("iterations")
         );
     }
 
     #[test]
     fn a_repeated_name_in_the_params_json_is_refused_naming_it() {
-        let e =
-            JobParams::from_json_bytes(br#"{"iterations": 2, "gradation": 1, "iterations": 3}"#)
-                .unwrap_err();
+        let e = Params::from_json_bytes(br#"{"iterations": 2, "gradation": 1, "iterations": 3}"#)
+            .unwrap_err();
         assert_eq!((e.status, e.field.as_deref()), (422, Some("iterations")));
         assert!(e.detail.contains("more than once"), "{}", e.detail);
-        let p = JobParams::from_json_bytes(br#"{"iterations": 2, "gradation": 1.5}"#).unwrap();
+        let p = Params::from_json_bytes(br#"{"iterations": 2, "gradation": 1.5}"#).unwrap();
         assert_eq!(p.iterations, 2);
         // Not an object: the usual message, not a duplicate.
-        let e = JobParams::from_json_bytes(b"[1, 1]").unwrap_err();
+        let e = Params::from_json_bytes(b"[1, 1]").unwrap_err();
         assert_eq!(e.field.as_deref(), Some("params"));
-        let e = JobParams::from_json_bytes(b"{").unwrap_err();
+        let e = Params::from_json_bytes(b"{").unwrap_err();
         assert_eq!((e.status, e.field.as_deref()), (400, Some("params")));
     }
 
@@ -469,24 +337,23 @@ mod tests {
 
     #[test]
     fn tolerance_ratio_is_a_parameter_and_excludes_tolerance() {
-        let p = JobParams::from_json(
-            &serde_json::json!({"sizing": "adaptive", "tolerance_ratio": 0.002}),
-        )
-        .unwrap();
+        let p =
+            Params::from_json(&serde_json::json!({"sizing": "adaptive", "tolerance_ratio": 0.002}))
+                .unwrap();
         assert_eq!(p.tolerance_ratio, Some(0.002));
         assert_eq!(
-            p.to_options(1, 1 << 30).unwrap().tolerance_ratio,
+            p.job_options(1, 1 << 30).unwrap().tolerance_ratio,
             Some(0.002)
         );
-        let both = JobParams::from_json(&serde_json::json!({
+        let both = Params::from_json(&serde_json::json!({
             "sizing": "adaptive", "tolerance": 0.01, "tolerance_ratio": 0.002
         }))
         .unwrap();
         assert_eq!(
-            both.to_options(1, 1 << 30).unwrap_err().field.as_deref(),
+            both.job_options(1, 1 << 30).unwrap_err().field.as_deref(),
             Some("tolerance")
         );
-        let e = JobParams::from_json(&serde_json::json!({"tolerance_ratio": "x"})).unwrap_err();
+        let e = Params::from_json(&serde_json::json!({"tolerance_ratio": "x"})).unwrap_err();
         assert_eq!(e.field.as_deref(), Some("tolerance_ratio"));
     }
 }

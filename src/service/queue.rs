@@ -246,7 +246,7 @@ fn execute(
     };
     let options = rec
         .params
-        .to_options(cfg.threads_per_job(), cfg.max_output_triangles)
+        .job_options(cfg.threads_per_job(), cfg.max_output_triangles)
         .map_err(RunError::Problem)?;
     let mut observer = JobObserver { job, deadline };
     let out = pipeline::run(&input, &options, &mut observer)?;

@@ -13,9 +13,9 @@ use http_body_util::BodyExt;
 use sha2::{Digest, Sha256};
 
 use super::config::ServiceConfig;
-use super::params::JobParams;
 use super::problem::{Problem, ProblemKind};
 use crate::io::Format;
+use crate::params::Params;
 
 /// A received submission, not yet parsed as a mesh.
 #[derive(Debug)]
@@ -27,7 +27,7 @@ pub struct Upload {
     /// The format named by the mesh's media type, if it names one.
     pub format_hint: Option<Format>,
     /// The parameters.
-    pub params: JobParams,
+    pub params: Params,
     /// External glTF buffers: (uri, bytes), in the order received.
     pub buffers: Vec<(String, Vec<u8>)>,
     /// SHA-256 (hex) over the mesh, its name and format hint, the buffers
@@ -130,7 +130,7 @@ pub async fn read_upload(req: Request, cfg: &ServiceConfig) -> Result<Upload, Pr
         let pairs = Query::<Vec<(String, String)>>::try_from_uri(&parts.uri)
             .map_err(|e| bad_request(format!("the query string cannot be parsed: {e}")))?
             .0;
-        let params = JobParams::from_query(&pairs)?;
+        let params = Params::from_query(&pairs)?;
         if bytes.is_empty() {
             return Err(bad_request("the body is empty; send a mesh file").with_field("mesh"));
         }
@@ -152,7 +152,7 @@ type Split = (
     Bytes,
     Option<String>,
     Option<Format>,
-    JobParams,
+    Params,
     Vec<(String, Vec<u8>)>,
 );
 
@@ -185,7 +185,7 @@ async fn read_multipart(req: Request) -> Result<Split, Problem> {
                 if params.is_some() {
                     return Err(bad_request("more than one `params` part").with_field("params"));
                 }
-                params = Some(JobParams::from_json_bytes(&data)?);
+                params = Some(Params::from_json_bytes(&data)?);
             }
             "" => return Err(bad_request("a multipart part has no name")),
             uri => {
@@ -214,7 +214,7 @@ fn fingerprint(
     mesh: &[u8],
     file_name: Option<&str>,
     hint: Option<Format>,
-    params: &JobParams,
+    params: &Params,
     buffers: &[(String, Vec<u8>)],
 ) -> String {
     let mut h = Sha256::new();

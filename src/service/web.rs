@@ -27,10 +27,10 @@ use axum::Router;
 use base64::Engine;
 use sha2::{Digest, Sha256};
 
-use super::params::JobParams;
 use super::problem::{Problem, ProblemKind};
 use super::server::AppState;
 use crate::io::Format;
+use crate::params::Params;
 
 /// One embedded file.
 struct Asset {
@@ -218,7 +218,7 @@ fn defaults_json() -> &'static [u8] {
     JSON.get_or_init(|| {
         let formats: Vec<&str> = Format::ALL.iter().map(|f| f.extension()).collect();
         serde_json::to_vec(&serde_json::json!({
-            "params": JobParams::default(),
+            "params": Params::default(),
             "formats": formats,
         }))
         .unwrap_or_default()

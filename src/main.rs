@@ -310,15 +310,11 @@ static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 /// Turns transparent huge pages off for this process.
 ///
-/// mimalloc commits its arenas eagerly and asks for huge pages, so a
-/// remesh of a 40k-triangle mesh faults in and zeroes about 90 MB of
-/// 2 MiB pages where it touches 50 MB. On a machine whose free memory has
-/// just been released by another process (the normal case for a CLI in a
-/// pipeline; measured right after a CGAL run), each of those faults is
-/// slow: spot took 0.24–0.26 s with huge pages and 0.18–0.20 s without,
-/// the bunny 0.39–0.40 s against 0.31–0.33 s. With warm memory the small
-/// meshes differ by less than the noise and igea (270k input triangles) is
-/// slower without (0.69–0.78 s against 0.62–0.66 s); see README.md.
+/// mimalloc commits its arenas eagerly and asks for huge pages, so a small
+/// remesh faults in and zeroes far more memory than it touches; on memory
+/// just released by another process (the normal case for a CLI in a
+/// pipeline) those faults dominate a short run. Figures in
+/// `docs/BENCHMARKS.md`.
 #[cfg(target_os = "linux")]
 fn disable_transparent_huge_pages() {
     // SAFETY: PR_SET_THP_DISABLE takes plain integers and reads or writes no

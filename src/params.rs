@@ -93,6 +93,7 @@ pub struct Params {
     /// Output format (default: the input's in the service, the output
     /// file's extension in the CLI).
     #[arg(long)]
+    #[serde(deserialize_with = "format_any_case")]
     pub output_format: Option<Format>,
     /// Write per-element quality into the output (glTF, GLB or PLY only):
     /// per face the smallest angle and the edge-length ratio to the local
@@ -124,6 +125,14 @@ impl Default for Params {
             quality_attributes: false,
         }
     }
+}
+
+/// Reads a format name as [`Format`]'s `FromStr` does, in any case
+/// (`"STL"`, `"glb"`).
+fn format_any_case<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<Format>, D::Error> {
+    Option::<String>::deserialize(d)?
+        .map(|s| s.parse().map_err(serde::de::Error::custom))
+        .transpose()
 }
 
 impl Params {

@@ -29,6 +29,7 @@ pub struct Reference {
     welded: OnceLock<(TriMesh, Vec<u32>)>,
     attributes: OnceLock<Option<Arc<SourceAttributes>>>,
     seams: OnceLock<Vec<[u32; 2]>>,
+    mean_edge: OnceLock<f64>,
     /// The last measured feature set and the options it was detected with:
     /// a job measures the input and the output's fidelity with one set of
     /// options, so one entry serves both.
@@ -70,6 +71,7 @@ impl Reference {
             welded: OnceLock::new(),
             attributes: OnceLock::new(),
             seams: OnceLock::new(),
+            mean_edge: OnceLock::new(),
             features: Mutex::new(None),
         }
     }
@@ -78,6 +80,18 @@ impl Reference {
     /// surface that projection and the distance statistics query.
     pub fn surface(&self) -> &TriMesh {
         self.surface.get_or_init(|| self.mesh.to_trimesh())
+    }
+
+    /// The mean edge length of [`Self::mesh`]: the uniform target when the
+    /// caller names none.
+    pub fn mean_edge_length(&self) -> f64 {
+        *self.mean_edge.get_or_init(|| {
+            let m = &self.mesh;
+            let (sum, n) = m
+                .edges()
+                .fold((0.0, 0usize), |(s, n), e| (s + m.edge_length(e), n + 1));
+            sum / n.max(1) as f64
+        })
     }
 
     /// The closest-point index over [`Self::surface`].

@@ -26,7 +26,7 @@ use rayon::prelude::*;
 
 use crate::appearance::VertexAttributes;
 use crate::bvh::{closest_point_on_triangle, SurfaceIndex};
-use crate::topology::{EdgeTable, UnionFind};
+use crate::topology::{corner_fans, EdgeTable};
 use crate::trimesh::{weld_positions, TriMesh};
 
 /// No face across an edge: a boundary, a non-manifold edge or a seam.
@@ -190,19 +190,9 @@ impl SourceAttributes {
             .map(|&[a, b]| (u64::from(a.min(b)) << 32) | u64::from(a.max(b)))
             .collect();
         seam_keys.sort_unstable();
-        let mut wedges = UnionFind::new(nc);
-        let next = |h: u32| 3 * (h / 3) + (h % 3 + 1) % 3;
-        EdgeTable::new(tris, out.positions.len()).for_each(|a, b, run| {
-            if let [(_, h0), (_, h1)] = *run {
-                let from = |h: u32| tris[(h / 3) as usize][(h % 3) as usize];
-                let key = (u64::from(a) << 32) | u64::from(b);
-                if seam_keys.binary_search(&key).is_ok() || from(h0) == from(h1) {
-                    return;
-                }
-                // Consistently oriented twins: h0 runs a→b and h1 b→a.
-                wedges.union(h0, next(h1));
-                wedges.union(next(h0), h1);
-            }
+        let wedges = corner_fans(tris, out.positions.len(), |a, b, _| {
+            let key = (u64::from(a) << 32) | u64::from(b);
+            seam_keys.binary_search(&key).is_err()
         });
         let roots = wedges.into_roots();
         let mut first = vec![NONE; nc];

@@ -30,8 +30,8 @@ mod split;
 mod state;
 
 pub use options::{
-    RemeshOptions, Sizing, DEFAULT_GRADATION, DEFAULT_ITERATIONS, DEFAULT_MAX_OUTPUT_FACES,
-    DEFAULT_MIN_CREASE_LENGTH, DEFAULT_RELAXATION_STEPS,
+    estimated_faces, RemeshOptions, Sizing, DEFAULT_GRADATION, DEFAULT_ITERATIONS,
+    DEFAULT_MAX_OUTPUT_FACES, DEFAULT_MIN_CREASE_LENGTH, DEFAULT_RELAXATION_STEPS,
 };
 
 use serde::{Deserialize, Serialize};
@@ -327,44 +327,20 @@ fn run(
     let mut report = RemeshReport::of_input(&st);
     report.seconds.prepare = start.elapsed().as_secs_f64();
 
-    // Renumbered once in the first iteration, after its splits when they
-    // added many elements and otherwise at its end (see State::renumber).
+    // Renumbered in the first iteration at the latest (see State::renumber).
     let mut renumbered = false;
     for it in 1..=iterations {
-        let mut ir = IterationReport::default();
         let before = report.seconds;
-        let t = &mut report.seconds;
-        if options.split {
-            enter(it, Pass::Split)?;
-            ir.splits = timed(&mut t.split, || {
-                let n = split::split_long_edges(&mut st, &cancel)?
-                    + split::split_deviating_edges(&mut st, &cancel)?;
-                if n as usize * 4 > st.mesh.face_count() {
-                    st.renumber();
-                    renumbered = true;
-                }
-                Ok(n)
+        let (mut ir, split_renumbered) =
+            iteration(&mut st, options, &cancel, &mut report.seconds, &|pass| {
+                enter(it, pass)
             })?;
-        }
-        if options.collapse {
-            enter(it, Pass::Collapse)?;
-            ir.collapses = timed(&mut t.collapse, || {
-                collapse::collapse_short_edges(&mut st, &cancel)
-            })?;
-        }
-        if options.flip {
-            enter(it, Pass::Flip)?;
-            let (flips, collapses) =
-                timed(&mut t.flip, || equalize_valences(&mut st, options, &cancel))?;
-            ir.flips = flips;
-            ir.collapses += collapses;
-        }
-        smooth(&mut st, options, &mut ir, t, &|pass| enter(it, pass))?;
-        ir.faces = st.mesh.face_count() as u64;
-        ir.seconds = report.seconds.since(&before);
+        renumbered |= split_renumbered;
         if it == 1 && !renumbered {
             st.renumber();
+            renumbered = true;
         }
+        ir.seconds = report.seconds.since(&before);
         report.iterations.push(ir);
         debug_assert!(st.mesh.validate().is_ok(), "{:?}", st.mesh.validate());
     }
@@ -372,13 +348,9 @@ fn run(
         // Part of the last iteration's progress: no new report, so the
         // fraction stays monotone.
         cancel.now()?;
-        let (flips, moves) = timed(&mut report.seconds.flip, || {
-            let first = repair::repair_slivers(&mut st, &cancel)?;
-            let moves = repair::improve_slivers(&mut st, &cancel)?;
-            Ok((first + repair::repair_slivers(&mut st, &cancel)?, moves))
+        (report.repair_flips, report.repair_moves) = timed(&mut report.seconds.flip, || {
+            repair::final_repair(&mut st, &cancel)
         })?;
-        report.repair_flips = flips;
-        report.repair_moves = moves;
     }
     let (mesh, vertex_target) = st.finish();
     mesh.validate()
@@ -390,6 +362,48 @@ fn run(
         input_vertex_target,
         report,
     })
+}
+
+/// One iteration of Botsch & Kobbelt: split long edges, collapse short
+/// ones, flip toward valence 6, then relax and project. A split pass that
+/// adds more than a quarter of the faces renumbers the mesh at once; the
+/// second value says whether it did.
+fn iteration(
+    st: &mut State,
+    options: &RemeshOptions,
+    cancel: &Cancel,
+    t: &mut PassTimes,
+    enter: &dyn Fn(Pass) -> Result<(), RemeshError>,
+) -> Result<(IterationReport, bool), RemeshError> {
+    let mut ir = IterationReport::default();
+    let mut renumbered = false;
+    if options.split {
+        enter(Pass::Split)?;
+        ir.splits = timed(&mut t.split, || {
+            let n =
+                split::split_long_edges(st, cancel)? + split::split_deviating_edges(st, cancel)?;
+            if n as usize * 4 > st.mesh.face_count() {
+                st.renumber();
+                renumbered = true;
+            }
+            Ok(n)
+        })?;
+    }
+    if options.collapse {
+        enter(Pass::Collapse)?;
+        ir.collapses = timed(&mut t.collapse, || {
+            collapse::collapse_short_edges(st, cancel)
+        })?;
+    }
+    if options.flip {
+        enter(Pass::Flip)?;
+        let (flips, collapses) = timed(&mut t.flip, || equalize_valences(st, options, cancel))?;
+        ir.flips = flips;
+        ir.collapses += collapses;
+    }
+    smooth(st, options, &mut ir, t, enter)?;
+    ir.faces = st.mesh.face_count() as u64;
+    Ok((ir, renumbered))
 }
 
 /// Runs `pass` and adds its wall time to `seconds`.

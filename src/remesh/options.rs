@@ -24,6 +24,13 @@ pub const DEFAULT_GRADATION: f64 = crate::sizing::DEFAULT_GRADATION;
 /// target length exhausting memory.
 pub const DEFAULT_MAX_OUTPUT_FACES: u64 = 50_000_000;
 
+/// The number of equilateral triangles of edge `l` that tile `area`,
+/// area / (√3/4 · l²): the output estimate that guards memory (infinite or
+/// NaN for a zero or invalid length).
+pub fn estimated_faces(area: f64, l: f64) -> f64 {
+    area / (3f64.sqrt() / 4.0 * l * l)
+}
+
 /// How the target edge length varies over the surface.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -210,6 +217,16 @@ impl RemeshOptions {
         } else {
             (mean_edge(), "target_edge_length")
         }
+    }
+
+    /// The adaptive tolerance ε: `tolerance`, else `tolerance_ratio` (default
+    /// [`crate::sizing::DEFAULT_RELATIVE_TOLERANCE`]) of `diagonal`.
+    pub fn tolerance_for(&self, diagonal: f64) -> f64 {
+        self.tolerance.unwrap_or_else(|| {
+            self.tolerance_ratio
+                .unwrap_or(crate::sizing::DEFAULT_RELATIVE_TOLERANCE)
+                * diagonal
+        })
     }
 
     /// Sets an absolute target edge length.

@@ -24,6 +24,14 @@ use super::{Cancel, RemeshError};
 use crate::geometry::{triangle_cross, triangle_min_angle_cos, triangle_quality};
 use crate::mesh::{EdgeId, FaceId, Handle, VertexId};
 
+/// The sliver repair after the last iteration: flips, shape moves, and
+/// flips again around what the moves changed. Returns (flips, moves).
+pub(super) fn final_repair(st: &mut State, cancel: &Cancel) -> Result<(u64, u64), RemeshError> {
+    let first = repair_slivers(st, cancel)?;
+    let moves = improve_slivers(st, cancel)?;
+    Ok((first + repair_slivers(st, cancel)?, moves))
+}
+
 /// Final sweep after the last iteration: a triangle whose smallest angle is
 /// below 30° gets its longest edge flipped when that raises the
 /// smallest angle of the two faces, whatever it does to the valence (the

@@ -124,8 +124,11 @@ impl State {
         let tm = input.surface();
         let diag = tm.bbox_diagonal();
         let area = tm.area();
-        let uniform_l =
-            (options.sizing == Sizing::Uniform).then(|| uniform_target(&mesh, options, diag, area));
+        let uniform_l = (options.sizing == Sizing::Uniform).then(|| {
+            options
+                .uniform_target(diag, area, || input.mean_edge_length())
+                .0
+        });
         // A uniform target's estimate needs no field: refuse before any work.
         if let Some(l) = uniform_l {
             check_estimate(area, l, options.max_output_faces)?;
@@ -505,13 +508,7 @@ fn face_neighbors(tm: &TriMesh, start: &[u32], faces: &[u32]) -> Vec<[u32; 3]> {
 /// The sizing options of adaptive sizing: the tolerance's defaults with the
 /// caller's bounds and gradation.
 fn adaptive_options(options: &RemeshOptions, diag: f64) -> SizingOptions {
-    let eps = options.tolerance.unwrap_or_else(|| {
-        options
-            .tolerance_ratio
-            .unwrap_or(crate::sizing::DEFAULT_RELATIVE_TOLERANCE)
-            * diag
-    });
-    let mut so = SizingOptions::for_tolerance(eps, diag);
+    let mut so = SizingOptions::for_tolerance(options.tolerance_for(diag), diag);
     if let Some(a) = options.min_edge_length {
         so.min_edge_length = a;
     }
@@ -523,18 +520,8 @@ fn adaptive_options(options: &RemeshOptions, diag: f64) -> SizingOptions {
     so
 }
 
-fn uniform_target(mesh: &Mesh, o: &RemeshOptions, diag: f64, area: f64) -> f64 {
-    o.uniform_target(diag, area, || {
-        let (sum, n) = mesh
-            .edges()
-            .fold((0.0, 0usize), |(s, n), e| (s + mesh.edge_length(e), n + 1));
-        sum / n.max(1) as f64
-    })
-    .0
-}
-
 fn check_estimate(area: f64, l: f64, limit: u64) -> Result<(), RemeshError> {
-    let est = area / (3f64.sqrt() / 4.0 * l * l);
+    let est = super::estimated_faces(area, l);
     if !(l > 0.0 && l.is_finite()) || est > limit as f64 {
         return Err(RemeshError::TooManyFaces {
             target_edge_length: l,

@@ -99,16 +99,12 @@ fn check_upload(svc: &Service, up: &Upload) -> Result<Checked, Problem> {
         )
         .with_field(up.buffers[0].0.clone()));
     }
-    let mesh = &loaded.mesh;
-    let (sum, edges) = mesh
-        .edges()
-        .fold((0.0, 0u64), |(s, n), e| (s + mesh.edge_length(e), n + 1));
     // The repaired surface, kept in the reference for the engine.
     let tm = loaded.surface();
     let geometry = InputGeometry {
         area: tm.area(),
         bbox_diagonal: tm.bbox_diagonal(),
-        mean_edge_length: sum / edges.max(1) as f64,
+        mean_edge_length: loaded.mean_edge_length(),
     };
     let est = estimate_output(&geometry, &options);
     if est.triangles > cfg.max_output_triangles {
@@ -140,8 +136,8 @@ fn check_upload(svc: &Service, up: &Upload) -> Result<Checked, Problem> {
             file_name: up.file_name.clone(),
             format: loaded.format,
             bytes: up.mesh.len() as u64,
-            vertices: mesh.vertex_count() as u64,
-            triangles: mesh.face_count() as u64,
+            vertices: loaded.mesh.vertex_count() as u64,
+            triangles: loaded.mesh.face_count() as u64,
             geometry,
             estimated_output_triangles: est.triangles,
             buffers: up.buffers.iter().map(|(u, _)| u.clone()).collect(),

@@ -8,17 +8,12 @@ use serde::{Deserialize, Serialize};
 use serde_json::{Map, Value};
 
 use super::problem::{Problem, ProblemKind};
-use crate::io::Format;
 use crate::params::{Params, PARAM_NAMES};
-use crate::remesh::{RemeshError, RemeshOptions, Sizing};
-use crate::sizing::{DEFAULT_MIN_EDGE_FACTOR, DEFAULT_RELATIVE_TOLERANCE};
+use crate::remesh::{estimated_faces, RemeshError, RemeshOptions, Sizing};
+use crate::sizing::DEFAULT_MIN_EDGE_FACTOR;
 
 fn bad(field: &str, message: impl std::fmt::Display) -> Problem {
     Problem::new(ProblemKind::InvalidParameter, format!("{field}: {message}")).with_field(field)
-}
-
-fn typed<T: serde::de::DeserializeOwned>(field: &str, v: &Value) -> Result<T, Problem> {
-    T::deserialize(v).map_err(|e| bad(field, e))
 }
 
 impl Params {
@@ -70,40 +65,23 @@ impl Params {
         Self::from_map(&map)
     }
 
+    /// Every name is checked against [`PARAM_NAMES`] and its value read
+    /// alone, so a problem names its field; the values then fill
+    /// [`Params`] in one read.
     fn from_map(map: &Map<String, Value>) -> Result<Self, Problem> {
-        let mut p = Params::default();
+        let mut given = Map::new();
         for (k, v) in map {
+            if !PARAM_NAMES.contains(&k.as_str()) {
+                return Err(unknown(k));
+            }
             if v.is_null() {
-                if !PARAM_NAMES.contains(&k.as_str()) {
-                    return Err(unknown(k));
-                }
                 continue;
             }
-            match k.as_str() {
-                "target_edge_length" => p.target_edge_length = Some(typed(k, v)?),
-                "target_edge_ratio" => p.target_edge_ratio = Some(typed(k, v)?),
-                "target_faces" => p.target_faces = Some(typed(k, v)?),
-                "iterations" => p.iterations = typed(k, v)?,
-                "relaxation_steps" => p.relaxation_steps = typed(k, v)?,
-                "preserve_features" => p.preserve_features = typed(k, v)?,
-                "feature_angle" => p.feature_angle = typed(k, v)?,
-                "min_crease_length" => p.min_crease_length = typed(k, v)?,
-                "sizing" => p.sizing = typed(k, v)?,
-                "refine_curved" => p.refine_curved = typed(k, v)?,
-                "tolerance" => p.tolerance = Some(typed(k, v)?),
-                "tolerance_ratio" => p.tolerance_ratio = Some(typed(k, v)?),
-                "min_edge_length" => p.min_edge_length = Some(typed(k, v)?),
-                "max_edge_length" => p.max_edge_length = Some(typed(k, v)?),
-                "gradation" => p.gradation = typed(k, v)?,
-                "quality_attributes" => p.quality_attributes = typed(k, v)?,
-                "output_format" => {
-                    let s: String = typed(k, v)?;
-                    p.output_format = Some(s.parse::<Format>().map_err(|e| bad(k, e))?);
-                }
-                _ => return Err(unknown(k)),
-            }
+            let one = Value::Object(Map::from_iter([(k.clone(), v.clone())]));
+            Params::deserialize(&one).map_err(|e| bad(k, e))?;
+            given.insert(k.clone(), v.clone());
         }
-        Ok(p)
+        Params::deserialize(&Value::Object(given)).map_err(|e| bad("params", e))
     }
 
     /// The engine's options, validated, with a refused option as a 422
@@ -228,15 +206,13 @@ pub fn estimate_output(g: &InputGeometry, o: &RemeshOptions) -> Estimate {
         Sizing::Uniform => o.uniform_target(g.bbox_diagonal, g.area, || g.mean_edge_length),
         Sizing::Adaptive => match o.min_edge_length {
             Some(a) => (a, "min_edge_length"),
-            None => {
-                let eps = o.tolerance.unwrap_or(
-                    o.tolerance_ratio.unwrap_or(DEFAULT_RELATIVE_TOLERANCE) * g.bbox_diagonal,
-                );
-                (DEFAULT_MIN_EDGE_FACTOR * eps, "tolerance")
-            }
+            None => (
+                DEFAULT_MIN_EDGE_FACTOR * o.tolerance_for(g.bbox_diagonal),
+                "tolerance",
+            ),
         },
     };
-    let est = g.area / (3f64.sqrt() / 4.0 * l * l);
+    let est = estimated_faces(g.area, l);
     let triangles = if est.is_finite() && est >= 0.0 {
         est.min(u64::MAX as f64) as u64
     } else {
@@ -253,6 +229,7 @@ pub fn estimate_output(g: &InputGeometry, o: &RemeshOptions) -> Estimate {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::io::Format;
 
     #[test]
     fn query_values_take_their_types() {

@@ -8,7 +8,7 @@
 
 use rayon::prelude::*;
 
-use super::topology::EdgeTable;
+use super::topology::EdgeCounts;
 use crate::geometry::triangle_angles;
 use crate::trimesh::{weld_positions, TriMesh};
 
@@ -54,7 +54,7 @@ pub fn element_quality(mesh: &TriMesh, target: f64, targets: Option<&[f64]>) -> 
         .map(|t| t.map(|v| weld[v as usize]))
         .filter(|t| t[0] != t[1] && t[1] != t[2] && t[2] != t[0])
         .collect();
-    let table = EdgeTable::new(&tris, welded.len());
+    let table = EdgeCounts::new(&tris, welded.len());
     let mut valence = vec![0u32; welded.len()];
     for e in &table.edges {
         valence[e.a as usize] += 1;

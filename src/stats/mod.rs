@@ -49,7 +49,7 @@ use crate::mesh::RepairReport;
 use crate::reference::Reference;
 use crate::trimesh::TriMesh;
 
-use topology::{count_sets, EdgeTable, UnionFind};
+use topology::{count_sets, EdgeCounts, UnionFind};
 
 /// Faces per parallel task in the per-face and per-edge loops.
 const CHUNK: usize = 16 * 1024;
@@ -253,7 +253,7 @@ fn compute_welded(
     let nf = tris.len();
 
     // --- topology -------------------------------------------------------
-    let table = EdgeTable::new(tris, nv);
+    let table = EdgeCounts::new(tris, nv);
     let edges = &table.edges;
     let mut valence = vec![0u32; nv];
     let mut boundary = vec![false; nv];

@@ -18,8 +18,9 @@ pub(crate) struct Edge {
     pub faces: u32,
 }
 
-/// The unique edges of a mesh and the flags found while building them.
-pub(crate) struct EdgeTable {
+/// The unique edges of a mesh with their face counts, and the flags found
+/// while counting them.
+pub(crate) struct EdgeCounts {
     /// Unique edges in increasing (a, b) order.
     pub edges: Vec<Edge>,
     /// Edges with more than two faces.
@@ -28,7 +29,7 @@ pub(crate) struct EdgeTable {
     pub misoriented: bool,
 }
 
-impl EdgeTable {
+impl EdgeCounts {
     /// Builds the table of `triangles`, each of whose indices must be
     /// `< vertex_count`; faces with an out-of-range index or a repeated
     /// corner are skipped by the caller, and left out here too. A side
@@ -74,7 +75,7 @@ mod tests {
     #[test]
     fn face_counts_and_orientation() {
         let tris = [[0, 1, 2], [2, 1, 3], [1, 0, 4], [0, 1, 5], [3, 2, 1]];
-        let p = EdgeTable::new(&tris, 6);
+        let p = EdgeCounts::new(&tris, 6);
         assert_eq!(p.edges.len(), 9);
         // Edges 0-1 and 1-2 carry three faces; 2-3 and 1-3 carry two, but
         // [3,2,1] runs along them in the same directions as [2,1,3].

@@ -15,7 +15,7 @@ use crate::remesh::{self, Observer, RemeshError, RemeshOptions, RemeshReport};
 use crate::stats::attributes::AttributeStats;
 use crate::stats::{self, Headline, MeshStats, StatsOptions};
 use crate::transfer::split_by_values;
-use crate::trimesh::TriMesh;
+use crate::trimesh::{position_key, TriMesh};
 
 /// Area samples per side for the distance statistics of a job: the
 /// benchmark's default, so that its `quality.py` measures at the same points.
@@ -241,18 +241,17 @@ pub fn measure(input: &LoadedInput, remeshed: &Remeshed, options: &RemeshOptions
 /// (normals only split them). Positions without a match (used by no face
 /// the repair kept) get the mean target, so that they shift no figure.
 fn source_targets(source: &TriMesh, repaired: &TriMesh, targets: &[f64]) -> Vec<f64> {
-    let key = |p: glam::DVec3| [p.x, p.y, p.z].map(|c| (c + 0.0).to_bits());
     let by_position: std::collections::HashMap<[u64; 3], f64> = repaired
         .positions
         .iter()
         .zip(targets)
-        .map(|(&p, &t)| (key(p), t))
+        .map(|(&p, &t)| (position_key(p), t))
         .collect();
     let mean = targets.iter().sum::<f64>() / targets.len().max(1) as f64;
     source
         .positions
         .iter()
-        .map(|&p| by_position.get(&key(p)).copied().unwrap_or(mean))
+        .map(|&p| by_position.get(&position_key(p)).copied().unwrap_or(mean))
         .collect()
 }
 

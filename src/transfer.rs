@@ -27,7 +27,7 @@ use rayon::prelude::*;
 use crate::appearance::VertexAttributes;
 use crate::bvh::{closest_point_on_triangle, SurfaceIndex};
 use crate::topology::{corner_fans, EdgeTable};
-use crate::trimesh::{weld_positions, TriMesh};
+use crate::trimesh::{position_key, weld_positions, TriMesh};
 
 /// No face across an edge: a boundary, a non-manifold edge or a seam.
 const NONE: u32 = u32::MAX;
@@ -155,19 +155,18 @@ impl SourceAttributes {
     /// repaired input): its vertex pairs whose positions form an input
     /// seam edge.
     pub fn seams_on(&self, mesh: &TriMesh) -> Vec<[u32; 2]> {
-        let key = |p: DVec3| [p.x, p.y, p.z].map(|c| (c + 0.0).to_bits());
         let welded = self.index.positions();
         let by_position: std::collections::HashMap<[u64; 3], u32> = welded
             .iter()
             .enumerate()
-            .map(|(i, &p)| (key(p), i as u32))
+            .map(|(i, &p)| (position_key(p), i as u32))
             .collect();
         let mut seams = self.seams.clone();
         seams.sort_unstable();
         let id: Vec<u32> = mesh
             .positions
             .iter()
-            .map(|&p| by_position.get(&key(p)).copied().unwrap_or(NONE))
+            .map(|&p| by_position.get(&position_key(p)).copied().unwrap_or(NONE))
             .collect();
         let mut out = Vec::new();
         EdgeTable::new(&mesh.triangles, mesh.positions.len()).for_each(|a, b, _| {

@@ -15,10 +15,11 @@ use serde::{Deserialize, Serialize};
 
 use crate::appearance::{Appearance, VertexAttributes};
 
-/// Bit pattern of a coordinate with −0 folded into +0, so equal values weld.
+/// The weld key of a position: its coordinates' bit patterns with −0 folded
+/// into +0, so that exactly equal positions, and only those, share a key.
 #[inline]
-fn key_bits(x: f64) -> u64 {
-    (x + 0.0).to_bits()
+pub(crate) fn position_key(p: DVec3) -> [u64; 3] {
+    [p.x, p.y, p.z].map(|c| (c + 0.0).to_bits())
 }
 
 /// Welds bit-identical positions (−0 equals +0): for each input position the
@@ -28,7 +29,7 @@ pub(crate) fn weld_positions(positions: &[DVec3]) -> (Vec<u32>, Vec<DVec3>) {
     let mut order: Vec<([u64; 3], u32)> = positions
         .par_iter()
         .enumerate()
-        .map(|(i, p)| ([key_bits(p.x), key_bits(p.y), key_bits(p.z)], i as u32))
+        .map(|(i, &p)| (position_key(p), i as u32))
         .collect();
     order.par_sort_unstable();
     let mut weld = vec![0u32; positions.len()];

@@ -7,7 +7,8 @@ and quality.py INPUT OUTPUT --L L, then prints every figure both report and
 their relative difference. Counts must agree exactly, every other figure to
 within --rtol (default 1e-3). Exit status 1 if any does not.
 
-Usage (from the project root, with ../shared beside it):
+Usage (from the project root; the shared bench is read from
+$ISOREMESH_SHARED_BENCH, by default ../shared/bench beside the repository):
     python3 benches/check_stats.py --bin target/release/isoremesh \
         --pair IN OUT [--pair IN OUT ...] [--L-rel 0.0075]
 """
@@ -18,7 +19,7 @@ import subprocess
 import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-BENCH = os.path.join(HERE, "..", "..", "shared", "bench")
+BENCH = os.environ.get("ISOREMESH_SHARED_BENCH", os.path.join(HERE, "..", "..", "shared", "bench"))
 sys.path.insert(0, BENCH)
 from meshload import bbox_diag, load_mesh  # noqa: E402
 

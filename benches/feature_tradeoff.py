@@ -16,7 +16,9 @@ import subprocess
 import sys
 import tempfile
 
-BENCH = os.path.join(os.path.dirname(__file__), "..", "..", "shared", "bench")
+BENCH = os.environ.get(
+    "ISOREMESH_SHARED_BENCH", os.path.join(os.path.dirname(__file__), "..", "..", "shared", "bench")
+)
 sys.path.insert(0, BENCH)
 import quality  # noqa: E402
 from meshload import bbox_diag, load_mesh  # noqa: E402

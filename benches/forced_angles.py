@@ -25,7 +25,9 @@ import sys
 
 import numpy as np
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "shared", "bench"))
+sys.path.insert(0, os.environ.get(
+    "ISOREMESH_SHARED_BENCH", os.path.join(os.path.dirname(__file__), "..", "..", "shared", "bench")
+))
 import quality  # noqa: E402
 from meshload import load_mesh  # noqa: E402
 

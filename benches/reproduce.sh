@@ -29,6 +29,7 @@ OUT=$(abs "${OUT:-/tmp/isoremesh-bench}")
 cd "$(dirname "$0")/.."
 # The repository's Python scripts import the shared bench's modules.
 export PYTHONPATH=$SHARED/bench${PYTHONPATH:+:$PYTHONPATH}
+export ISOREMESH_SHARED_BENCH=$SHARED/bench
 
 # The eleven shared meshes of the peers run (the sub-folders `more/` and
 # `products/` are not part of it).

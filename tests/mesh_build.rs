@@ -85,6 +85,36 @@ fn edge_shared_by_three_faces_becomes_boundary_edges() {
     assert_eq!(mesh.boundary_loop_count(), 3);
 }
 
+/// A closed sphere with one extra face (a fin) hanging on one of its edges:
+/// the fin is cut free, and the sphere's two faces on that edge are glued
+/// back, so the sphere stays closed and no two edges join the same vertices.
+#[test]
+fn fin_on_a_closed_surface_is_cut_free_and_the_surface_stays_closed() {
+    let mut m = shapes::icosphere(2);
+    let sphere_faces = m.triangles.len();
+    let [a, b, _] = m.triangles[0];
+    let tip = m.positions.len() as u32;
+    let mid = (m.positions[a as usize] + m.positions[b as usize]) * 0.5;
+    m.positions.push(mid * 1.5);
+    m.triangles.push([a, b, tip]);
+    let (mesh, report) = build(&m);
+    assert_eq!(report.non_manifold_edges, 1);
+    assert_eq!(mesh.face_count(), sphere_faces + 1);
+    // The fin alone is one boundary loop; the sphere part is closed again.
+    assert_eq!(mesh.boundary_loop_count(), 1);
+    // Sphere (χ = 2) plus a separate triangle (χ = 1).
+    assert_eq!(mesh.euler_characteristic(), 3);
+    // Twice over the same edge: two fins on one edge of the sphere.
+    let mut m2 = m.clone();
+    let tip2 = m2.positions.len() as u32;
+    m2.positions.push(mid * 1.3 + DVec3::new(0.0, 0.0, 0.2));
+    m2.triangles.push([b, a, tip2]);
+    let (mesh2, report2) = build(&m2);
+    assert_eq!(report2.non_manifold_edges, 1);
+    assert_eq!(mesh2.face_count(), sphere_faces + 2);
+    assert_eq!(mesh2.boundary_loop_count(), 2);
+}
+
 #[test]
 fn bowtie_vertex_is_split_into_one_vertex_per_fan() {
     let positions = vec![

@@ -9,7 +9,9 @@
 //! 4. cut edges shared by three or more faces into boundary edges;
 //! 5. orient each connected component consistently, flipping the minority,
 //!    and cut the edges that make a component non-orientable;
-//! 6. split vertices where separate fans of faces meet (non-manifold vertices).
+//! 6. split vertices where separate fans of faces meet (non-manifold vertices);
+//! 7. glue back the two sides of a cut edge that still meet in one fan at
+//!    both ends, which would otherwise be two edges between the same vertices.
 //!
 //! Everything repaired is counted in a [`RepairReport`]. Sorting replaces
 //! hashing throughout, so building is O(n log n) with small constants.
@@ -265,7 +267,6 @@ fn build(input: &TriMesh) -> Result<(Mesh, RepairReport), BuildError> {
     // t[k] -> t[k+1]; the edge table groups the corners of each edge.
     let nf = tris.len();
     let corner_from = |c: usize, tris: &[[u32; 3]]| tris[c / 3][c % 3];
-    let corner_to = |c: usize, tris: &[[u32; 3]]| tris[c / 3][(c % 3 + 1) % 3];
     let mut partner = vec![NONE; 3 * nf];
     EdgeTable::new(&tris, positions.len()).for_each(|_, _, run| match *run {
         [_] => {}
@@ -348,9 +349,52 @@ fn build(input: &TriMesh) -> Result<(Mesh, RepairReport), BuildError> {
     let partner = new_partner;
     drop(flip);
 
+    let nv = positions.len();
+    let mut assembled = assemble(input, positions, &tris, &labels, &partner);
+    // 7. A cut edge whose two remaining sides still meet in one fan at both
+    // ends (a face pair that was manifold but for a fin hanging on their
+    // edge) leaves two boundary edges joining the same two vertices. Glue
+    // each such pair back into one interior edge and assemble again.
+    let glue = duplicate_boundary_corners(&assembled);
+    if !glue.is_empty() {
+        let mut partner = partner;
+        for &[c1, c2] in &glue {
+            partner[c1 as usize] = c2;
+            partner[c2 as usize] = c1;
+        }
+        let positions = assembled.mesh.pos[..nv].to_vec();
+        drop(assembled);
+        assembled = assemble(input, positions, &tris, &labels, &partner);
+    }
+    report.non_manifold_vertices = assembled.split_vertices;
+    let mesh = assembled.mesh;
+    debug_assert!(mesh.validate().is_ok(), "{:?}", mesh.validate());
+    Ok((mesh, report))
+}
+/// A half-edge mesh assembled from oriented triangles and their corner
+/// pairing, with the half-edge of every corner.
+struct Assembled {
+    mesh: Mesh,
+    he_of_corner: Vec<HalfedgeId>,
+    split_vertices: u64,
+}
+
+/// Builds the half-edges of `tris` (corner `c` pairs with `partner[c]`, or
+/// is a boundary edge), splits non-manifold vertices (step 6) and links the
+/// boundary loops.
+fn assemble(
+    input: &TriMesh,
+    positions: Vec<DVec3>,
+    tris: &[[u32; 3]],
+    labels: &[u32],
+    partner: &[u32],
+) -> Assembled {
+    let corner_from = |c: usize| tris[c / 3][c % 3];
+    let corner_to = |c: usize| tris[c / 3][(c % 3 + 1) % 3];
     // Build half-edges. Each paired corner pair is one edge; each unpaired
     // corner is an edge whose twin is a boundary half-edge.
     let nv = positions.len();
+    let nf = tris.len();
     let mut mesh = Mesh {
         pos: positions,
         v_out: vec![HalfedgeId::INVALID; nv],
@@ -370,15 +414,12 @@ fn build(input: &TriMesh) -> Result<(Mesh, RepairReport), BuildError> {
         if he_of_corner[c].is_valid() {
             continue;
         }
-        let (a, b) = (
-            VertexId(corner_from(c, &tris)),
-            VertexId(corner_to(c, &tris)),
-        );
+        let (a, b) = (VertexId(corner_from(c)), VertexId(corner_to(c)));
         let h = mesh.new_edge(a, b);
         he_of_corner[c] = h;
         let p = partner[c];
         if p != NONE {
-            debug_assert_eq!(corner_from(p as usize, &tris), b.0);
+            debug_assert_eq!(corner_from(p as usize), b.0);
             he_of_corner[p as usize] = h.twin();
         }
     }
@@ -394,8 +435,6 @@ fn build(input: &TriMesh) -> Result<(Mesh, RepairReport), BuildError> {
             mesh.link(hs[k], hs[(k + 1) % 3]);
         }
     }
-    drop(partner);
-    drop(labels);
 
     // 6. Split non-manifold vertices: one vertex per fan of faces. Outgoing
     // face half-edges per vertex, as CSR.
@@ -407,6 +446,7 @@ fn build(input: &TriMesh) -> Result<(Mesh, RepairReport), BuildError> {
             .map(|h| (mesh.from_vertex(h).idx() as u32, h))
     });
     let mut visited = vec![false; nh];
+    let mut split_vertices = 0;
     let mut fan: Vec<HalfedgeId> = Vec::new();
     for v in 0..nv {
         let mut fans = 0;
@@ -455,7 +495,7 @@ fn build(input: &TriMesh) -> Result<(Mesh, RepairReport), BuildError> {
             mesh.v_out[target.idx()] = h0;
         }
         if fans > 1 {
-            report.non_manifold_vertices += 1;
+            split_vertices += 1;
         }
     }
     drop(out);
@@ -486,5 +526,54 @@ fn build(input: &TriMesh) -> Result<(Mesh, RepairReport), BuildError> {
         }
     }
     debug_assert!(mesh.validate().is_ok(), "{:?}", mesh.validate());
-    Ok((mesh, report))
+    Assembled {
+        mesh,
+        he_of_corner,
+        split_vertices,
+    }
+}
+
+/// The corner pairs to glue: the face sides of boundary edges that join the
+/// same two vertices as another boundary edge. Each such pair has one face
+/// running a→b and the other b→a (they are the two boundary edges of one fan
+/// at each end), so gluing them keeps the orientation.
+fn duplicate_boundary_corners(a: &Assembled) -> Vec<[u32; 2]> {
+    let mesh = &a.mesh;
+    let mut ends: Vec<([u32; 2], HalfedgeId)> = (0..mesh.he_to.len() as u32)
+        .map(HalfedgeId)
+        .filter(|&h| mesh.is_boundary_halfedge(h.twin()) && !mesh.is_boundary_halfedge(h))
+        .map(|h| {
+            let (u, v) = (mesh.from_vertex(h).0, mesh.to_vertex(h).0);
+            ([u.min(v), u.max(v)], h)
+        })
+        .collect();
+    if ends.len() < 2 {
+        return Vec::new();
+    }
+    ends.sort_unstable_by_key(|&(k, h)| (k, h.0));
+    let mut pairs: Vec<(HalfedgeId, HalfedgeId)> = Vec::new();
+    for run in ends.chunk_by(|x, y| x.0 == y.0) {
+        if let [(_, h1), (_, h2)] = *run {
+            if mesh.from_vertex(h1) == mesh.to_vertex(h2) {
+                pairs.push((h1, h2));
+            }
+        }
+    }
+    if pairs.is_empty() {
+        return Vec::new();
+    }
+    let mut corner_of = std::collections::HashMap::with_capacity(2 * pairs.len());
+    for &(h1, h2) in &pairs {
+        corner_of.insert(h1, NONE);
+        corner_of.insert(h2, NONE);
+    }
+    for (c, h) in a.he_of_corner.iter().enumerate() {
+        if let Some(slot) = corner_of.get_mut(h) {
+            *slot = c as u32;
+        }
+    }
+    pairs
+        .iter()
+        .map(|(h1, h2)| [corner_of[h1], corner_of[h2]])
+        .collect()
 }

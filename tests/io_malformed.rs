@@ -586,3 +586,64 @@ fn writers_refuse_invalid_meshes() {
         Err(IoError::NonFinite { vertex: 0 })
     ));
 }
+
+/// A regular polygon of `n` corners on the unit circle, as one face in
+/// OBJ, OFF and PLY.
+fn polygon_files(n: usize) -> [(Format, Vec<u8>); 3] {
+    use std::fmt::Write;
+    let (mut obj, mut off, mut ply) = (String::new(), format!("OFF\n{n} 1 0\n"), String::new());
+    write!(ply, "ply\nformat ascii 1.0\nelement vertex {n}\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uint int vertex_indices\nend_header\n").unwrap();
+    for i in 0..n {
+        let a = std::f64::consts::TAU * i as f64 / n as f64;
+        let (x, y) = (a.cos(), a.sin());
+        writeln!(obj, "v {x} {y} 0").unwrap();
+        writeln!(off, "{x} {y} 0").unwrap();
+        writeln!(ply, "{x} {y} 0").unwrap();
+    }
+    let ids = |from: usize| {
+        (0..n)
+            .map(|i| (i + from).to_string())
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    writeln!(obj, "f {}", ids(1)).unwrap();
+    writeln!(off, "{n} {}", ids(0)).unwrap();
+    writeln!(ply, "{n} {}", ids(0)).unwrap();
+    [
+        (Format::Obj, obj.into_bytes()),
+        (Format::Off, off.into_bytes()),
+        (Format::Ply, ply.into_bytes()),
+    ]
+}
+
+/// A huge polygon is triangulated in linear time with bounded valence (no
+/// fan that puts every triangle on one corner), and one above the limit is
+/// refused by name.
+#[test]
+fn huge_polygons_are_stripped_or_refused() {
+    let n = 20_000;
+    for (format, bytes) in polygon_files(n) {
+        let mesh = read(&bytes, format).expect("reads").mesh;
+        assert_eq!(mesh.triangles.len(), n - 2, "{format:?}");
+        let mut uses = vec![0u32; mesh.positions.len()];
+        for t in &mesh.triangles {
+            for &v in t {
+                uses[v as usize] += 1;
+            }
+        }
+        assert!(
+            uses.iter().all(|&u| u <= 4),
+            "{format:?}: max valence {:?}",
+            uses.iter().max()
+        );
+    }
+    let too_many = io::polygon::MAX_POLYGON_CORNERS + 1;
+    for (format, bytes) in polygon_files(too_many) {
+        let err = read(&bytes, format).expect_err("refused");
+        assert!(matches!(err, IoError::TooLarge { .. }), "{format:?}: {err}");
+        assert!(
+            err.to_string().contains(&format!("{too_many} corners")),
+            "{err}"
+        );
+    }
+}

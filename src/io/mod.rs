@@ -22,6 +22,7 @@ mod normals;
 mod obj;
 mod off;
 mod ply;
+pub mod polygon;
 pub(crate) mod result_mesh;
 mod stl;
 mod text;

@@ -1,5 +1,5 @@
-//! Wavefront OBJ through `tobj::load_obj_buf`, with polygons fan-triangulated
-//! by tobj. The material library is never opened: the loader passed to tobj
+//! Wavefront OBJ through `tobj::load_obj_buf`, with polygons triangulated by
+//! [`super::polygon`]. The material library is never opened: the loader passed to tobj
 //! returns name-only placeholder materials for the `usemtl` names found in
 //! the file itself, so that each material becomes one face label (material
 //! borders become features later). Groups and objects without materials do
@@ -54,7 +54,7 @@ pub(super) fn read(bytes: &[u8]) -> Result<Imported, IoError> {
     };
     let options = tobj::LoadOptions {
         single_index: false,
-        triangulate: true,
+        triangulate: false,
         ignore_points: true,
         ignore_lines: true,
     };
@@ -70,6 +70,8 @@ pub(super) fn read(bytes: &[u8]) -> Result<Imported, IoError> {
     let mut mesh = TriMesh::default();
     let mut label_of: HashMap<Option<usize>, u32> = HashMap::new();
     let mut normals_ok = true;
+    // Faces counted from 0 in file order, for error messages.
+    let mut polygons = 0u64;
     for model in &models {
         let m = &model.mesh;
         let base = super::vertex_index(mesh.positions.len())?;
@@ -81,11 +83,30 @@ pub(super) fn read(bytes: &[u8]) -> Result<Imported, IoError> {
                 .map(|c| DVec3::new(c[0], c[1], c[2])),
         );
         let first_face = mesh.triangles.len();
-        mesh.triangles.extend(
-            m.indices
-                .chunks_exact(3)
-                .map(|t| [t[0] + base, t[1] + base, t[2] + base]),
-        );
+        if m.face_arities.is_empty() {
+            mesh.triangles.extend(
+                m.indices
+                    .chunks_exact(3)
+                    .map(|t| [t[0] + base, t[1] + base, t[2] + base]),
+            );
+        } else {
+            let mut start = 0;
+            let mut corners: Vec<u32> = Vec::new();
+            for &arity in &m.face_arities {
+                let end = start + arity as usize;
+                corners.clear();
+                let face = m.indices.get(start..end).ok_or_else(|| {
+                    IoError::parse(Format::Obj, "the parser returned inconsistent faces")
+                })?;
+                corners.extend(face.iter().map(|&i| i + base));
+                super::polygon::triangulate(polygons, &corners, &mut mesh.triangles)?;
+                polygons += 1;
+                start = end;
+            }
+        }
+        if m.face_arities.is_empty() {
+            polygons += (m.indices.len() / 3) as u64;
+        }
         if uses_materials {
             let next = label_of.len() as u32;
             let label = *label_of.entry(m.material_id).or_insert(next);

@@ -4,7 +4,7 @@
 //! `n i0 … i(n-1)` with optional trailing colour. `#` starts a comment.
 //! Only the first three numbers of a vertex line are positions; colours,
 //! normals and texture coordinates that follow are skipped. Polygons are
-//! split into fans. Binary OFF and 4D/nD variants are refused.
+//! triangulated by [`super::polygon`]. Binary OFF and 4D/nD variants are refused.
 
 use std::io::Write;
 
@@ -101,6 +101,7 @@ pub(super) fn read(bytes: &[u8]) -> Result<Imported, IoError> {
     mesh.triangles.reserve(nf);
     let mut ignored = 0;
     let mut corners: Vec<i64> = Vec::new();
+    let mut polygon: Vec<u32> = Vec::new();
     for i in 0..nf {
         let line = lines
             .next()
@@ -132,11 +133,9 @@ pub(super) fn read(bytes: &[u8]) -> Result<Imported, IoError> {
             }
         }
         // In range, so each index fits in u32.
-        let c0 = corners[0] as u32;
-        for k in 1..n - 1 {
-            mesh.triangles
-                .push([c0, corners[k] as u32, corners[k + 1] as u32]);
-        }
+        polygon.clear();
+        polygon.extend(corners.iter().map(|&v| v as u32));
+        super::polygon::triangulate(i as u64, &polygon, &mut mesh.triangles)?;
     }
     Ok(Imported {
         mesh,

@@ -1,7 +1,7 @@
 //! Stanford PLY through `ply-rs-bw`: ASCII, binary little and big endian.
 //! Reads the `vertex` element's `x y z` (any scalar type) and `nx ny nz`,
 //! `face` lists named `vertex_indices` or `vertex_index` (any integer list
-//! type, polygons split into fans) and `tristrips` lists (strips separated by
+//! type, polygons triangulated by [`super::polygon`]) and `tristrips` lists (strips separated by
 //! `-1`, as in the original Cyberware scans). Other elements and properties
 //! are skipped. Writes doubles and `list uchar uint vertex_indices`.
 //!
@@ -294,10 +294,7 @@ pub(super) fn read(bytes: &[u8]) -> Result<Imported, IoError> {
             ignored += 1;
             continue;
         }
-        for k in 1..corners.len() - 1 {
-            mesh.triangles
-                .push([corners[0], corners[k], corners[k + 1]]);
-        }
+        super::polygon::triangulate(f as u64, &corners, &mut mesh.triangles)?;
     }
     for (s, strip) in strips.iter().enumerate() {
         let face = (faces.len() + s) as u64;

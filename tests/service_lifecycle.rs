@@ -263,6 +263,39 @@ fn a_job_interrupted_by_shutdown_runs_after_restart() {
     assert_eq!(job_a["attempts"], 2);
 }
 
+/// A job that was running when the process died as often as the attempt
+/// limit allows fails at the next start with a problem that says so, and
+/// stays failed across further restarts; the other jobs still run.
+#[test]
+fn a_job_interrupted_too_often_fails_instead_of_running_again() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = kill_9_while_running(dir.path());
+    let mut cfg = config(dir.path());
+    cfg.max_attempts = 1;
+    let s = Server::start(cfg);
+    let job_a = s.wait_finished(&a);
+    assert_eq!(job_a["status"], "failed", "{job_a}");
+    assert_eq!(job_a["attempts"], 1);
+    let e = &job_a["error"];
+    assert!(
+        e["type"].as_str().unwrap().ends_with("too-many-attempts"),
+        "{e}"
+    );
+    assert!(
+        e["detail"]
+            .as_str()
+            .unwrap()
+            .contains("interrupted 1 times"),
+        "{e}"
+    );
+    assert_eq!(s.wait_finished(&b)["status"], "succeeded");
+    s.stop();
+    let s = Server::start(config(dir.path()));
+    let (_, again) = s.get_json(&format!("/v1/jobs/{a}"));
+    assert_eq!(again["status"], "failed", "{again}");
+    assert_eq!(again["attempts"], 1);
+}
+
 /// Starts the real binary and returns it with its base URL.
 fn spawn_binary(data_dir: &std::path::Path) -> (std::process::Child, String) {
     let mut child = Command::new(env!("CARGO_BIN_EXE_isoremesh"))
@@ -306,10 +339,10 @@ fn spawn_binary(data_dir: &std::path::Path) -> (std::process::Child, String) {
     (child, base)
 }
 
-#[test]
-fn jobs_interrupted_by_kill_9_complete_after_restart() {
-    let dir = tempfile::tempdir().unwrap();
-    let (mut child, base) = spawn_binary(dir.path());
+/// Runs the binary on `dir`, submits a slow job `a` and a quick job `b`,
+/// and kills the process with SIGKILL while `a` runs; returns (a, b).
+fn kill_9_while_running(dir: &std::path::Path) -> (String, String) {
+    let (mut child, base) = spawn_binary(dir);
     let client = reqwest::blocking::Client::new();
     let t0 = Instant::now();
     while client.get(format!("{base}/readyz")).send().is_err() {
@@ -358,14 +391,20 @@ fn jobs_interrupted_by_kill_9_complete_after_restart() {
     child.wait().unwrap();
     let status_on_disk = |id: &str| -> Value {
         let rec: Value = serde_json::from_slice(
-            &std::fs::read(dir.path().join("jobs").join(id).join("job.json")).unwrap(),
+            &std::fs::read(dir.join("jobs").join(id).join("job.json")).unwrap(),
         )
         .unwrap();
         rec["status"].clone()
     };
     assert_eq!(status_on_disk(&a), "running");
     assert_eq!(status_on_disk(&b), "queued");
+    (a, b)
+}
 
+#[test]
+fn jobs_interrupted_by_kill_9_complete_after_restart() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = kill_9_while_running(dir.path());
     let s = Server::start(config(dir.path()));
     for id in [&a, &b] {
         let job = s.wait_finished(id);

@@ -25,6 +25,9 @@ pub const DEFAULT_MAX_OUTPUT_TRIANGLES: u64 = 20_000_000;
 pub const DEFAULT_MAX_PREPARED_BYTES: u64 = 1 << 30;
 /// Default wall-time limit of one job.
 pub const DEFAULT_JOB_TIMEOUT_SECS: u64 = 3600;
+/// Default number of times a job may be started before an interruption
+/// (a crash or a kill while it runs) fails it instead of queueing it again.
+pub const DEFAULT_MAX_ATTEMPTS: u32 = 3;
 /// Default lifetime of a finished job and its result.
 pub const DEFAULT_RESULT_TTL_SECS: u64 = 86_400;
 /// Default time running jobs get to finish at shutdown.
@@ -65,6 +68,12 @@ pub struct ServiceConfig {
     /// stored upload.
     #[arg(long, env = "ISOREMESH_MAX_PREPARED_BYTES", default_value_t = DEFAULT_MAX_PREPARED_BYTES)]
     pub max_prepared_bytes: u64,
+    /// Times a job may be started: a job whose run was interrupted (the
+    /// process crashed or was killed) this often fails with a
+    /// `too-many-attempts` problem at the next start instead of running
+    /// again, so that a job that crashes the process cannot crash-loop it.
+    #[arg(long, env = "ISOREMESH_MAX_ATTEMPTS", default_value_t = DEFAULT_MAX_ATTEMPTS)]
+    pub max_attempts: u32,
     /// Seconds a finished job and its result are kept before they expire.
     #[arg(long, env = "ISOREMESH_RESULT_TTL_SECS", default_value_t = DEFAULT_RESULT_TTL_SECS)]
     pub result_ttl_secs: u64,
@@ -102,6 +111,7 @@ impl ServiceConfig {
             max_output_triangles: DEFAULT_MAX_OUTPUT_TRIANGLES,
             job_timeout_secs: DEFAULT_JOB_TIMEOUT_SECS,
             max_prepared_bytes: DEFAULT_MAX_PREPARED_BYTES,
+            max_attempts: DEFAULT_MAX_ATTEMPTS,
             result_ttl_secs: DEFAULT_RESULT_TTL_SECS,
             shutdown_grace_secs: DEFAULT_SHUTDOWN_GRACE_SECS,
             log_json: false,
@@ -133,6 +143,9 @@ impl ServiceConfig {
         }
         if self.max_output_triangles == 0 {
             return bad("max-output-triangles", "must be at least 1");
+        }
+        if self.max_attempts == 0 {
+            return bad("max-attempts", "must be at least 1");
         }
         if self.job_timeout_secs == 0 {
             return bad("job-timeout-secs", "must be at least 1");

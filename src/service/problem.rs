@@ -56,6 +56,9 @@ pub enum ProblemKind {
     ResultExpired,
     /// The job passed its wall-time limit.
     JobTimeout,
+    /// The job was interrupted (the process stopped or crashed while it ran)
+    /// more often than the attempt limit allows.
+    TooManyAttempts,
     /// A bug or an unexpected failure on our side.
     Internal,
 }
@@ -82,6 +85,7 @@ impl ProblemKind {
             ProblemKind::JobFinished => "job-finished",
             ProblemKind::ResultExpired => "result-expired",
             ProblemKind::JobTimeout => "job-timeout",
+            ProblemKind::TooManyAttempts => "too-many-attempts",
             ProblemKind::Internal => "internal",
         }
     }
@@ -97,7 +101,8 @@ impl ProblemKind {
             | ProblemKind::InvalidParameter
             | ProblemKind::OutputTooLarge
             | ProblemKind::IdempotencyConflict
-            | ProblemKind::JobTimeout => StatusCode::UNPROCESSABLE_ENTITY,
+            | ProblemKind::JobTimeout
+            | ProblemKind::TooManyAttempts => StatusCode::UNPROCESSABLE_ENTITY,
             ProblemKind::QueueFull | ProblemKind::ShuttingDown => StatusCode::SERVICE_UNAVAILABLE,
             ProblemKind::JobNotFound | ProblemKind::NotFound => StatusCode::NOT_FOUND,
             ProblemKind::MethodNotAllowed => StatusCode::METHOD_NOT_ALLOWED,
@@ -128,6 +133,7 @@ impl ProblemKind {
             ProblemKind::JobFinished => "Job already finished",
             ProblemKind::ResultExpired => "Result expired",
             ProblemKind::JobTimeout => "Job time limit exceeded",
+            ProblemKind::TooManyAttempts => "Job interrupted too often",
             ProblemKind::Internal => "Internal error",
         }
     }

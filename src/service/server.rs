@@ -13,6 +13,7 @@ use super::config::{self, ServiceConfig};
 use super::jobs::{now_ms, CancelReason, Job, JobStatus, Registry};
 use super::metrics::{Gauges, Metrics};
 use super::prepared::PreparedBudget;
+use super::problem::{Problem, ProblemKind};
 use super::queue::{self, JobQueue, WorkerContext};
 use super::routes::app;
 use super::store::Store;
@@ -124,12 +125,29 @@ impl Service {
             .map_err(io_err("cannot read the data directory"))?;
         records.sort_by(|a, b| (a.created_ms, &a.id).cmp(&(b.created_ms, &b.id)));
         let mut requeued = 0;
+        let mut failed = 0;
         for mut r in records {
-            let pending = !r.status.is_finished();
+            let mut gave_up = false;
             if r.status == JobStatus::Running {
-                r.requeue();
-                tracing::warn!(job_id = %r.id, "job was interrupted while running; queued again");
+                if r.attempts >= self.config.max_attempts {
+                    let problem = Problem::new(
+                        ProblemKind::TooManyAttempts,
+                        format!(
+                            "the job was interrupted {} times while running (the service stopped \
+                             or crashed); at most {} attempts are made",
+                            r.attempts, self.config.max_attempts
+                        ),
+                    );
+                    r.fail(now_ms(), self.config.result_ttl_secs * 1000, problem);
+                    tracing::error!(job_id = %r.id, attempts = r.attempts, "job interrupted too often; failed");
+                    failed += 1;
+                    gave_up = true;
+                } else {
+                    r.requeue();
+                    tracing::warn!(job_id = %r.id, attempts = r.attempts, "job was interrupted while running; queued again");
+                }
             }
+            let pending = !r.status.is_finished();
             let id = r.id.clone();
             let job = Arc::new(Job::new(r));
             self.jobs.insert(Arc::clone(&job));
@@ -137,10 +155,15 @@ impl Service {
                 self.persist(&job);
                 self.queue.push_recovered(id);
                 requeued += 1;
+            } else if gave_up {
+                self.persist(&job);
             }
         }
         if requeued > 0 {
             tracing::info!(jobs = requeued, "re-queued unfinished jobs");
+        }
+        if failed > 0 {
+            tracing::warn!(jobs = failed, "failed jobs interrupted too often");
         }
         Ok(())
     }

@@ -28,6 +28,10 @@ pub const DEFAULT_JOB_TIMEOUT_SECS: u64 = 3600;
 /// Default number of times a job may be started before an interruption
 /// (a crash or a kill while it runs) fails it instead of queueing it again.
 pub const DEFAULT_MAX_ATTEMPTS: u32 = 3;
+/// Default cap on open HTTP connections.
+pub const DEFAULT_MAX_CONNECTIONS: usize = 1024;
+/// Default deadline for a request head, which also bounds keep-alive idling.
+pub const DEFAULT_HEADER_TIMEOUT_SECS: u64 = 10;
 /// Default lifetime of a finished job and its result.
 pub const DEFAULT_RESULT_TTL_SECS: u64 = 86_400;
 /// Default time running jobs get to finish at shutdown.
@@ -74,6 +78,17 @@ pub struct ServiceConfig {
     /// again, so that a job that crashes the process cannot crash-loop it.
     #[arg(long, env = "ISOREMESH_MAX_ATTEMPTS", default_value_t = DEFAULT_MAX_ATTEMPTS)]
     pub max_attempts: u32,
+    /// Most HTTP connections open at once. At the cap a new connection closes
+    /// the oldest idle one; when every one is busy it gets a
+    /// `too-many-connections` 503.
+    #[arg(long, env = "ISOREMESH_MAX_CONNECTIONS", default_value_t = DEFAULT_MAX_CONNECTIONS)]
+    pub max_connections: usize,
+    /// Seconds a client has to send a request's head (request line and
+    /// headers), counted from when the server waits for it: on a new
+    /// connection, and between requests on a kept-alive one, so it also
+    /// closes idle connections.
+    #[arg(long, env = "ISOREMESH_HEADER_TIMEOUT_SECS", default_value_t = DEFAULT_HEADER_TIMEOUT_SECS)]
+    pub header_timeout_secs: u64,
     /// Seconds a finished job and its result are kept before they expire.
     #[arg(long, env = "ISOREMESH_RESULT_TTL_SECS", default_value_t = DEFAULT_RESULT_TTL_SECS)]
     pub result_ttl_secs: u64,
@@ -112,6 +127,8 @@ impl ServiceConfig {
             job_timeout_secs: DEFAULT_JOB_TIMEOUT_SECS,
             max_prepared_bytes: DEFAULT_MAX_PREPARED_BYTES,
             max_attempts: DEFAULT_MAX_ATTEMPTS,
+            max_connections: DEFAULT_MAX_CONNECTIONS,
+            header_timeout_secs: DEFAULT_HEADER_TIMEOUT_SECS,
             result_ttl_secs: DEFAULT_RESULT_TTL_SECS,
             shutdown_grace_secs: DEFAULT_SHUTDOWN_GRACE_SECS,
             log_json: false,
@@ -143,6 +160,12 @@ impl ServiceConfig {
         }
         if self.max_output_triangles == 0 {
             return bad("max-output-triangles", "must be at least 1");
+        }
+        if self.max_connections == 0 {
+            return bad("max-connections", "must be at least 1");
+        }
+        if self.header_timeout_secs == 0 {
+            return bad("header-timeout-secs", "must be at least 1");
         }
         if self.max_attempts == 0 {
             return bad("max-attempts", "must be at least 1");

@@ -25,6 +25,11 @@ pub struct Metrics {
     /// Runs that used the input as submit parsed it, and runs that parsed
     /// the stored upload.
     inputs: [AtomicU64; 2],
+    /// Connections accepted, evicted while idle at the cap, and refused at
+    /// the cap because all were busy.
+    connections: [AtomicU64; 3],
+    /// Connections open now (kept by the accept loop, which owns them).
+    connections_open: AtomicU64,
 }
 
 /// State read at scrape time.
@@ -87,6 +92,27 @@ impl Metrics {
             .fetch_add((seconds.max(0.0) * 1e6) as u64, Ordering::Relaxed);
     }
 
+    /// Counts an accepted connection, now open.
+    pub fn connection_opened(&self) {
+        self.connections[0].fetch_add(1, Ordering::Relaxed);
+        self.connections_open.fetch_add(1, Ordering::Relaxed);
+    }
+
+    /// Counts a connection that closed.
+    pub fn connection_closed(&self) {
+        self.connections_open.fetch_sub(1, Ordering::Relaxed);
+    }
+
+    /// Counts an idle connection closed to make room at the cap.
+    pub fn connection_evicted(&self) {
+        self.connections[1].fetch_add(1, Ordering::Relaxed);
+    }
+
+    /// Counts a connection refused at the cap (every open one was busy).
+    pub fn connection_refused(&self) {
+        self.connections[2].fetch_add(1, Ordering::Relaxed);
+    }
+
     /// The exposition text.
     pub fn render(&self, g: &Gauges) -> String {
         let mut s = String::new();
@@ -127,6 +153,23 @@ impl Metrics {
             "gauge",
             "Bytes of parsed inputs held for queued jobs.",
             &one(g.prepared_bytes.to_string()),
+        );
+        metric(
+            "isoremesh_connections_open",
+            "gauge",
+            "HTTP connections open now.",
+            &one(ld(&self.connections_open).to_string()),
+        );
+        let connections: Vec<_> = ["accepted", "evicted", "refused"]
+            .iter()
+            .zip(&self.connections)
+            .map(|(how, n)| (format!("{{outcome=\"{how}\"}}"), ld(n).to_string()))
+            .collect();
+        metric(
+            "isoremesh_connections_total",
+            "counter",
+            "HTTP connections: accepted, closed while idle to make room at the connection cap, and refused at the cap because every open one was busy.",
+            &connections,
         );
         let inputs: Vec<_> = ["reused", "parsed"]
             .iter()

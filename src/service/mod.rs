@@ -12,6 +12,7 @@
 //! |---|---|
 //! | [`server`] | the [`Service`] object, [`serve`] and [`run`] |
 //! | [`config`] | flags and `ISOREMESH_*` variables, limits |
+//! | [`connections`] | the accept loop: connection cap, request-head deadline, graceful close |
 //! | [`routes`] | the route table and [`app`] |
 //! | [`handlers`] | one function per endpoint |
 //! | [`upload`] | reading a submission under size and time limits |
@@ -27,6 +28,7 @@
 //! | [`web`] | the web page at `/` and its embedded files |
 
 pub mod config;
+pub mod connections;
 pub mod dto;
 pub mod handlers;
 pub mod jobs;

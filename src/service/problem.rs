@@ -42,6 +42,8 @@ pub enum ProblemKind {
     QueueFull,
     /// The service is shutting down.
     ShuttingDown,
+    /// Every connection the server may hold is open and busy.
+    TooManyConnections,
     /// No job has this id.
     JobNotFound,
     /// No route matches the path.
@@ -78,6 +80,7 @@ impl ProblemKind {
             ProblemKind::IdempotencyConflict => "idempotency-conflict",
             ProblemKind::QueueFull => "queue-full",
             ProblemKind::ShuttingDown => "shutting-down",
+            ProblemKind::TooManyConnections => "too-many-connections",
             ProblemKind::JobNotFound => "job-not-found",
             ProblemKind::NotFound => "not-found",
             ProblemKind::MethodNotAllowed => "method-not-allowed",
@@ -103,7 +106,9 @@ impl ProblemKind {
             | ProblemKind::IdempotencyConflict
             | ProblemKind::JobTimeout
             | ProblemKind::TooManyAttempts => StatusCode::UNPROCESSABLE_ENTITY,
-            ProblemKind::QueueFull | ProblemKind::ShuttingDown => StatusCode::SERVICE_UNAVAILABLE,
+            ProblemKind::QueueFull
+            | ProblemKind::ShuttingDown
+            | ProblemKind::TooManyConnections => StatusCode::SERVICE_UNAVAILABLE,
             ProblemKind::JobNotFound | ProblemKind::NotFound => StatusCode::NOT_FOUND,
             ProblemKind::MethodNotAllowed => StatusCode::METHOD_NOT_ALLOWED,
             ProblemKind::ResultNotReady | ProblemKind::JobFinished => StatusCode::CONFLICT,
@@ -126,6 +131,7 @@ impl ProblemKind {
             ProblemKind::IdempotencyConflict => "Idempotency-Key reused with a different request",
             ProblemKind::QueueFull => "Job queue full",
             ProblemKind::ShuttingDown => "Service shutting down",
+            ProblemKind::TooManyConnections => "Too many connections",
             ProblemKind::JobNotFound => "Job not found",
             ProblemKind::NotFound => "Not found",
             ProblemKind::MethodNotAllowed => "Method not allowed",

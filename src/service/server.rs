@@ -10,6 +10,7 @@ use std::thread::JoinHandle;
 use std::time::Duration;
 
 use super::config::{self, ServiceConfig};
+use super::connections::{serve_connections, ConnectionLimits};
 use super::jobs::{now_ms, CancelReason, Job, JobStatus, Registry};
 use super::metrics::{Gauges, Metrics};
 use super::prepared::PreparedBudget;
@@ -298,9 +299,19 @@ pub async fn serve(
             svc.begin_shutdown();
         }
     };
-    let served = axum::serve(listener, app(Arc::clone(&svc)))
-        .with_graceful_shutdown(on_signal)
-        .await;
+    let limits = ConnectionLimits {
+        max_connections: svc.config.max_connections,
+        header_timeout: Duration::from_secs(svc.config.header_timeout_secs),
+    };
+    let served = serve_connections(
+        listener,
+        app(Arc::clone(&svc)),
+        limits,
+        Arc::clone(&svc.metrics),
+        on_signal,
+        svc.config.shutdown_grace(),
+    )
+    .await;
     sweeper.abort();
     svc.drain(svc.config.shutdown_grace()).await;
     served

@@ -117,12 +117,12 @@ fn external_buffers(
         return Ok(out); // the reader reports the parse error
     };
     let dir = path.parent().unwrap_or(Path::new("."));
-    let buffers = doc.get("buffers").and_then(|b| b.as_array());
-    for uri in buffers
+    // Buffers and images both name their external files by `uri`.
+    let named = ["buffers", "images"]
         .into_iter()
-        .flatten()
-        .filter_map(|b| b.get("uri")?.as_str())
-    {
+        .filter_map(|key| doc.get(key)?.as_array())
+        .flatten();
+    for uri in named.filter_map(|b| b.get("uri")?.as_str()) {
         let plain = !uri.starts_with("data:")
             && !uri.contains("://")
             && !uri.starts_with('/')

@@ -237,3 +237,21 @@ fn every_bad_input_gives_one_line_and_a_non_zero_exit() {
         "format",
     );
 }
+
+/// A `.gltf` whose buffer and texture are separate files beside it: the CLI
+/// reads both, and the output carries the texture.
+#[test]
+fn a_gltf_with_an_external_buffer_and_image_remeshes_textured() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("box.glb");
+    let input = data_support::path("gltf/BoxTextured/BoxTextured.gltf");
+    let run = bin().arg("remesh").arg(&input).arg(&out).output().unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let (doc, _, images) = gltf::import(&out).unwrap();
+    assert_eq!(images.len(), 1);
+    assert!(doc.textures().count() >= 1);
+}

@@ -89,6 +89,7 @@ pub(super) fn read(bytes: &[u8]) -> Result<Imported, IoError> {
                     .chunks_exact(3)
                     .map(|t| [t[0] + base, t[1] + base, t[2] + base]),
             );
+            polygons += (m.indices.len() / 3) as u64;
         } else {
             let mut start = 0;
             let mut corners: Vec<u32> = Vec::new();
@@ -103,9 +104,6 @@ pub(super) fn read(bytes: &[u8]) -> Result<Imported, IoError> {
                 polygons += 1;
                 start = end;
             }
-        }
-        if m.face_arities.is_empty() {
-            polygons += (m.indices.len() / 3) as u64;
         }
         if uses_materials {
             let next = label_of.len() as u32;

@@ -124,6 +124,14 @@ impl Metrics {
             }
         };
         let one = |v: String| [(String::new(), v)];
+        // One line per `label="value"` pair, for a counter array.
+        let labelled = |label: &str, values: &[&str], counters: &[AtomicU64]| -> Vec<_> {
+            values
+                .iter()
+                .zip(counters)
+                .map(|(v, n)| (format!("{{{label}=\"{v}\"}}"), ld(n).to_string()))
+                .collect()
+        };
         metric(
             "isoremesh_queue_depth",
             "gauge",
@@ -160,22 +168,18 @@ impl Metrics {
             "HTTP connections open now.",
             &one(ld(&self.connections_open).to_string()),
         );
-        let connections: Vec<_> = ["accepted", "evicted", "refused"]
-            .iter()
-            .zip(&self.connections)
-            .map(|(how, n)| (format!("{{outcome=\"{how}\"}}"), ld(n).to_string()))
-            .collect();
+        let connections = labelled(
+            "outcome",
+            &["accepted", "evicted", "refused"],
+            &self.connections,
+        );
         metric(
             "isoremesh_connections_total",
             "counter",
             "HTTP connections: accepted, closed while idle to make room at the connection cap, and refused at the cap because every open one was busy.",
             &connections,
         );
-        let inputs: Vec<_> = ["reused", "parsed"]
-            .iter()
-            .zip(&self.inputs)
-            .map(|(how, n)| (format!("{{how=\"{how}\"}}"), ld(n).to_string()))
-            .collect();
+        let inputs = labelled("how", &["reused", "parsed"], &self.inputs);
         metric(
             "isoremesh_job_inputs_total",
             "counter",
@@ -200,11 +204,11 @@ impl Metrics {
             "Submissions refused because the queue was full.",
             &one(ld(&self.rejected).to_string()),
         );
-        let finished: Vec<_> = ["succeeded", "failed", "cancelled"]
-            .iter()
-            .zip(&self.finished)
-            .map(|(o, n)| (format!("{{outcome=\"{o}\"}}"), ld(n).to_string()))
-            .collect();
+        let finished = labelled(
+            "outcome",
+            &["succeeded", "failed", "cancelled"],
+            &self.finished,
+        );
         metric(
             "isoremesh_jobs_finished_total",
             "counter",

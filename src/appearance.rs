@@ -146,6 +146,28 @@ impl VertexAttributes {
     }
 }
 
+/// The linear value of an sRGB-encoded colour channel in [0, 1] (IEC
+/// 61966-2-1). PLY and OBJ colours are sRGB; glTF's `COLOR_0` is linear.
+pub fn srgb_to_linear(c: f32) -> f32 {
+    let c = c.clamp(0.0, 1.0);
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// The sRGB encoding of a linear colour channel in [0, 1], the inverse of
+/// [`srgb_to_linear`].
+pub fn linear_to_srgb(c: f32) -> f32 {
+    let c = c.clamp(0.0, 1.0);
+    if c <= 0.003_130_8 {
+        c * 12.92
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    }
+}
+
 /// An image as the input stored it: its bytes are written back unchanged.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Image {
@@ -234,6 +256,14 @@ mod tests {
         assert_eq!(a.select(&[1, 0]).texcoords[0], vec![[2.0, 3.0], [0.0, 1.0]]);
         assert!(a.check(2).is_ok());
         assert!(a.check(3).unwrap_err().contains("TEXCOORD_0"));
+    }
+
+    #[test]
+    fn srgb_round_trips_every_byte() {
+        for b in 0..=255u8 {
+            let lin = srgb_to_linear(f32::from(b) / 255.0);
+            assert_eq!((linear_to_srgb(lin) * 255.0).round() as u8, b);
+        }
     }
 
     #[test]

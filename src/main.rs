@@ -7,6 +7,9 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Args, Parser, Subcommand};
+use std::collections::HashMap;
+
+use isoremesh::io::companions::{companion_names, is_plain_relative, Companion};
 use isoremesh::io::{Format, ReadOptions};
 use isoremesh::params::Params;
 use isoremesh::pipeline::{self, JobError};
@@ -100,40 +103,50 @@ fn load(path: &Path, format: Option<Format>) -> Result<pipeline::LoadedInput, Fa
     let bytes = read_file(path)?;
     let name = path.file_name().and_then(|n| n.to_str());
     let mut read = ReadOptions::default();
-    if Format::detect(name, &bytes, format).ok() == Some(Format::Gltf) {
-        read.external_buffers = external_buffers(path, &bytes)?;
+    if let Ok(f) = Format::detect(name, &bytes, format) {
+        read.external_buffers = companion_files(path, &bytes, f)?;
     }
     pipeline::load(&bytes, name, format, &read).map_err(|e| fail(path, e))
 }
 
-/// The CLI, unlike the library, may read a `.gltf`'s external buffers: plain
-/// relative paths next to the file (no scheme, no absolute path, no `..`).
-fn external_buffers(
+/// The CLI, unlike the library, reads the files a model names beside it (a
+/// `.gltf`'s buffers and images, an OBJ's material libraries and their
+/// maps): plain relative paths inside the model's directory only. A name
+/// that would leave it is refused; a missing optional file (an OBJ's
+/// material library) is left for the reader to note.
+fn companion_files(
     path: &Path,
     bytes: &[u8],
-) -> Result<std::collections::HashMap<String, Vec<u8>>, Failure> {
-    let mut out = std::collections::HashMap::new();
-    let Ok(doc) = serde_json::from_slice::<serde_json::Value>(bytes) else {
-        return Ok(out); // the reader reports the parse error
-    };
+    format: Format,
+) -> Result<HashMap<String, Vec<u8>>, Failure> {
+    let mut out = HashMap::new();
+    let mut tried = std::collections::HashSet::new();
     let dir = path.parent().unwrap_or(Path::new("."));
-    // Buffers and images both name their external files by `uri`.
-    let named = ["buffers", "images"]
-        .into_iter()
-        .filter_map(|key| doc.get(key)?.as_array())
-        .flatten();
-    for uri in named.filter_map(|b| b.get("uri")?.as_str()) {
-        let plain = !uri.starts_with("data:")
-            && !uri.contains("://")
-            && !uri.starts_with('/')
-            && !uri.split(['/', '\\']).any(|c| c == "..");
-        // A malformed escape is left for the reader to report as missing.
-        if let Some(decoded) = plain.then(|| isoremesh::io::percent_decode(uri)).flatten() {
-            let file = dir.join(&decoded);
-            out.insert(uri.to_string(), read_file(&file)?);
+    loop {
+        let wanted: Vec<Companion> = companion_names(bytes, format, &out)
+            .into_iter()
+            .filter(|c| tried.insert(c.name.clone()))
+            .collect();
+        if wanted.is_empty() {
+            return Ok(out);
+        }
+        for c in wanted {
+            if !is_plain_relative(&c.path) {
+                return Err(fail(
+                    path,
+                    format!("refusing to read {:?}: a model may only name files inside its own directory", c.name),
+                ));
+            }
+            let file = dir.join(&c.path);
+            match std::fs::read(&file) {
+                Ok(b) => {
+                    out.insert(c.name, b);
+                }
+                Err(e) if !c.required && e.kind() == std::io::ErrorKind::NotFound => {}
+                Err(e) => return Err(fail(&file, e)),
+            }
         }
     }
-    Ok(out)
 }
 
 fn stats_command(a: StatsArgs) -> Result<(), Failure> {
@@ -232,9 +245,7 @@ fn remesh_command(a: RemeshArgs) -> Result<(), Failure> {
     } else {
         Default::default()
     };
-    let bytes = pipeline::encode_with(&remeshed.written, out_format, &attributes)
-        .map_err(|e| fail(&a.output, e))?;
-    std::fs::write(&a.output, bytes).map_err(|e| fail(&a.output, e))?;
+    write_output(&a.output, &remeshed, out_format, &attributes)?;
     if let Some(path) = &a.stats {
         let stats = pipeline::measure(&input, &remeshed, &o);
         print!("{}", stats.headline.render());
@@ -247,6 +258,35 @@ fn remesh_command(a: RemeshArgs) -> Result<(), Failure> {
         });
         let text = serde_json::to_vec_pretty(&doc).map_err(|e| Failure(e.to_string()))?;
         std::fs::write(path, text).map_err(|e| fail(path, e))?;
+    }
+    Ok(())
+}
+
+/// Writes the result to `output`, and beside it any companion files its
+/// format needs (an OBJ's `.mtl` and texture images).
+fn write_output(
+    output: &Path,
+    remeshed: &pipeline::Remeshed,
+    format: Format,
+    attributes: &isoremesh::io::Attributes,
+) -> Result<(), Failure> {
+    let stem = output
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("mesh");
+    let files = pipeline::encode_files(&remeshed.written, format, attributes, stem)
+        .map_err(|e| fail(output, e))?;
+    let dir = output.parent().unwrap_or(Path::new("."));
+    for (k, (name, bytes)) in files.into_iter().enumerate() {
+        let path = if k == 0 {
+            output.to_path_buf()
+        } else {
+            dir.join(&name)
+        };
+        if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+            std::fs::create_dir_all(parent).map_err(|e| fail(parent, e))?;
+        }
+        std::fs::write(&path, bytes).map_err(|e| fail(&path, e))?;
     }
     Ok(())
 }

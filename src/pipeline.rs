@@ -275,6 +275,23 @@ pub fn encode_with(
     )?)
 }
 
+/// Encodes a result mesh as the files `format` needs, named after `stem`:
+/// the model first, then its companions (an OBJ's `.mtl` and images).
+pub fn encode_files(
+    mesh: &TriMesh,
+    format: Format,
+    attributes: &Attributes,
+    stem: &str,
+) -> Result<Vec<(String, Vec<u8>)>, JobError> {
+    Ok(io::write_files(
+        mesh,
+        format,
+        &WriteOptions::default(),
+        attributes,
+        stem,
+    )?)
+}
+
 /// The `quality_attributes` of a remesh's written mesh: per face `quality_min_angle` (smallest
 /// angle, degrees) and `quality_edge_ratio` (mean edge length over the
 /// mean target of its corners: L under uniform sizing, the size field

@@ -255,3 +255,56 @@ fn a_gltf_with_an_external_buffer_and_image_remeshes_textured() {
     assert_eq!(images.len(), 1);
     assert!(doc.textures().count() >= 1);
 }
+
+#[test]
+fn a_textured_obj_result_comes_with_its_library_and_images_and_reads_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = dir.path().join("out/box.obj");
+    std::fs::create_dir_all(obj.parent().unwrap()).unwrap();
+    let input = data_support::path("gltf/BoxTextured/BoxTextured.gltf");
+    let run = |args: &[&std::path::Path]| {
+        let r = bin().arg("remesh").args(args).output().unwrap();
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    };
+    run(&[&input, &obj]);
+    let text = std::fs::read_to_string(&obj).unwrap();
+    assert!(text.contains("mtllib box.mtl") && text.contains("\nvt "));
+    let mtl = std::fs::read_to_string(dir.path().join("out/box.mtl")).unwrap();
+    let map = mtl
+        .lines()
+        .find_map(|l| l.strip_prefix("map_Kd "))
+        .expect("a base-colour map");
+    let png = data_support::bytes("gltf/BoxTextured/CesiumLogoFlat.png");
+    assert_eq!(
+        std::fs::read(dir.path().join("out").join(map)).unwrap(),
+        png
+    );
+    // The OBJ, its library and its image are read back from beside it.
+    let glb = dir.path().join("back.glb");
+    run(&[&obj, &glb]);
+    let (doc, _, images) = gltf::import(&glb).unwrap();
+    assert_eq!(images.len(), 1);
+    assert!(doc
+        .meshes()
+        .next()
+        .unwrap()
+        .primitives()
+        .all(|p| p.get(&gltf::Semantic::TexCoords(0)).is_some()));
+}
+
+#[test]
+fn a_model_naming_a_file_outside_its_directory_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = dir.path().join("m.obj");
+    std::fs::write(
+        &obj,
+        "mtllib ../secret.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    let out = dir.path().join("o.obj");
+    expect_failure(
+        &["remesh", obj.to_str().unwrap(), out.to_str().unwrap()],
+        "m.obj",
+        "refusing",
+    );
+}

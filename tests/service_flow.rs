@@ -257,6 +257,97 @@ fn every_input_format_runs_the_whole_flow() {
 }
 
 #[test]
+fn a_textured_obj_with_its_parts_comes_back_whole_as_a_zip() {
+    use std::io::Read;
+    // BoxTextured as OBJ files: model, library and image.
+    let opts = ReadOptions {
+        external_buffers: [
+            ("BoxTextured0.bin", "gltf/BoxTextured/BoxTextured0.bin"),
+            ("CesiumLogoFlat.png", "gltf/BoxTextured/CesiumLogoFlat.png"),
+        ]
+        .into_iter()
+        .map(|(k, f)| (k.to_string(), data(f)))
+        .collect(),
+        ..ReadOptions::default()
+    };
+    let gltf = data("gltf/BoxTextured/BoxTextured.gltf");
+    let boxed = io::read(&gltf, Format::Gltf, &opts).unwrap().mesh;
+    let mut files = io::write_files(
+        &boxed,
+        Format::Obj,
+        &io::WriteOptions::default(),
+        &io::Attributes::default(),
+        "box",
+    )
+    .unwrap();
+    let (_, obj) = files.remove(0);
+    let png = data("gltf/BoxTextured/CesiumLogoFlat.png");
+    assert_eq!(files[1].1, png);
+
+    let dir = tempfile::tempdir().unwrap();
+    let s = Server::start(config(dir.path()));
+    let p = json!({"iterations": 3});
+    let r = s.submit(
+        "box.obj",
+        obj.clone(),
+        Some(p.clone()),
+        vec![files[0].clone()],
+    );
+    let missing = assert_problem(r, 422, Some(files[1].0.as_str()));
+    assert!(
+        missing["detail"].as_str().unwrap().contains(&files[1].0),
+        "{missing}"
+    );
+    let mut typo = files.clone();
+    typo.push(("box-normal.png".into(), png.clone()));
+    let r = s.submit("box.obj", obj.clone(), Some(p.clone()), typo);
+    assert_problem(r, 400, Some("box-normal.png"));
+    let r = s.submit("box.obj", obj, Some(p), files.clone());
+    let status = r.status().as_u16();
+    let body: Value = r.json().unwrap();
+    assert_eq!(status, 202, "{body}");
+    let id = body["id"].as_str().unwrap().to_string();
+    let job = s.wait_finished(&id);
+    assert_eq!(job["status"], "succeeded", "{job}");
+    assert_eq!(
+        job["stats"]["attributes"]["output"],
+        json!(["TEXCOORD_0"]),
+        "{job}"
+    );
+
+    let plain = s.get(&format!("/v1/jobs/{id}/result"));
+    let text = plain.text().unwrap();
+    assert!(text.contains("mtllib box-remeshed.mtl\n") && text.contains("\nvt "));
+
+    let r = s.get(&format!("/v1/jobs/{id}/result?format=obj&bundle=zip"));
+    assert_eq!(r.status().as_u16(), 200);
+    assert_eq!(r.headers()["content-type"], "application/zip");
+    let zip = r.bytes().unwrap().to_vec();
+    let mut archive = zip::ZipArchive::new(std::io::Cursor::new(zip)).unwrap();
+    let mut member = |name: &str| {
+        let mut out = Vec::new();
+        archive
+            .by_name(name)
+            .unwrap()
+            .read_to_end(&mut out)
+            .unwrap();
+        out
+    };
+    assert_eq!(String::from_utf8(member("box-remeshed.obj")).unwrap(), text);
+    let mtl = String::from_utf8(member("box-remeshed.mtl")).unwrap();
+    let map = mtl
+        .lines()
+        .find_map(|l| l.strip_prefix("map_Kd "))
+        .unwrap()
+        .to_string();
+    assert_eq!(member(&map), png);
+
+    let r = s.get(&format!("/v1/jobs/{id}/result?bundle=tar"));
+    assert_problem(r, 422, Some("bundle"));
+    s.stop();
+}
+
+#[test]
 fn health_readiness_and_openapi_are_served() {
     let dir = tempfile::tempdir().unwrap();
     let s = Server::start(config(dir.path()));

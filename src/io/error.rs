@@ -66,8 +66,10 @@ pub enum IoError {
     },
     /// A glTF buffer lives in another file that the caller did not provide.
     /// isoremesh never opens a file or URL named inside a model.
-    #[error("glTF refers to the external file {uri:?} (a buffer or an image), which was not provided (isoremesh never opens files named inside a model; supply it together with the .gltf)")]
+    #[error("{format} refers to the external file {uri:?}, which was not provided (isoremesh never opens files named inside a model; supply it together with the model)")]
     ExternalBuffer {
+        /// The format of the model that names it.
+        format: Format,
         /// The buffer's `uri` as written in the file.
         uri: String,
     },

@@ -2,10 +2,11 @@
 //! (`.gltf` with embedded buffers and `.glb`), STL, PLY and OFF, format
 //! detection, and split vertex normals for rendering.
 //!
-//! The layer never touches the filesystem or the network: a glTF buffer
-//! stored in another file must be handed in through
-//! [`ReadOptions::external_buffers`], and OBJ `mtllib` files are never
-//! opened. Readers return the raw indexed triangles of the file (an STL is a
+//! The layer never touches the filesystem or the network: a file that a
+//! model names beside itself (a glTF buffer or image, an OBJ material
+//! library or texture map) must be handed in through
+//! [`ReadOptions::external_buffers`]; [`companions`] says which files those
+//! are. Readers return the raw indexed triangles of the file (an STL is a
 //! soup of three vertices per triangle); welding and repair belong to the
 //! half-edge builder. Hostile input yields a typed [`IoError`], never a
 //! panic: every length, count, stride and index is checked before it is
@@ -15,9 +16,11 @@
 //! Systems STL layout (80-byte header, u32 count, 50-byte facets).
 
 mod attributes;
+pub mod companions;
 mod error;
 mod format;
 mod gltf;
+mod mtl;
 mod normals;
 mod obj;
 mod off;
@@ -46,8 +49,10 @@ pub const DEFAULT_MAX_TRIANGLES: u64 = 1 << 27;
 /// Inputs a reader may need besides the main file's bytes.
 #[derive(Clone, Debug)]
 pub struct ReadOptions {
-    /// glTF buffers stored in separate files, keyed by the buffer's `uri`
-    /// exactly as written in the `.gltf` (percent-decoded keys also match).
+    /// Companion files (see [`companions`]): a `.gltf`'s external buffers
+    /// and images, an OBJ's material libraries and texture maps, keyed by
+    /// the name the model gives them (percent-decoded keys, `/` for `\`,
+    /// and bare file names also match).
     pub external_buffers: HashMap<String, Vec<u8>>,
     /// The largest number of triangles a reader may produce; larger meshes
     /// fail with [`IoError::TooLarge`] before they are allocated.
@@ -100,7 +105,7 @@ impl Default for WriteOptions {
 /// only finite coordinates.
 pub fn read(bytes: &[u8], format: Format, opts: &ReadOptions) -> Result<Imported, IoError> {
     let imported = guarded(format, || match format {
-        Format::Obj => obj::read(bytes),
+        Format::Obj => obj::read(bytes, opts),
         Format::Gltf | Format::Glb => gltf::read(bytes, format, opts),
         Format::Stl => stl::read(bytes),
         Format::Ply => ply::read(bytes),
@@ -128,18 +133,10 @@ pub fn write_with_attributes(
     opts: &WriteOptions,
     attrs: &Attributes,
 ) -> Result<Vec<u8>, IoError> {
-    mesh.check()
-        .map_err(|message| IoError::InvalidMesh { message })?;
-    if mesh.triangles.is_empty() {
-        return Err(IoError::Empty);
-    }
-    if let Some(v) = mesh.positions.iter().position(|p| !p.is_finite()) {
-        return Err(IoError::NonFinite { vertex: v as u64 });
-    }
-    attrs.check(mesh, format)?;
+    validate_write(mesh, format, attrs)?;
     let normals = opts.normals && !mesh.normals.is_empty();
     match format {
-        Format::Obj => Ok(obj::write(mesh, normals)),
+        Format::Obj => Ok(obj::write(mesh, normals, None)),
         Format::Gltf | Format::Glb if !attrs.is_empty() => {
             let (split, extra) = attributes::per_corner(mesh, attrs);
             gltf::write(&split, format, normals, &extra)
@@ -149,6 +146,40 @@ pub fn write_with_attributes(
         Format::Ply => ply::write(mesh, opts.binary, normals, attrs),
         Format::Off => Ok(off::write(mesh)),
     }
+}
+
+/// Writes a mesh as the files its format needs, named after `stem`: the
+/// model file first, then its companions. An OBJ with materials comes with
+/// `stem.mtl` and its texture images (under their own relative names when
+/// they have plain ones); every other format is one file, as [`write_with_attributes`]
+/// writes it.
+pub fn write_files(
+    mesh: &TriMesh,
+    format: Format,
+    opts: &WriteOptions,
+    attrs: &Attributes,
+    stem: &str,
+) -> Result<Vec<(String, Vec<u8>)>, IoError> {
+    if format != Format::Obj {
+        let bytes = write_with_attributes(mesh, format, opts, attrs)?;
+        return Ok(vec![(format!("{stem}.{}", format.extension()), bytes)]);
+    }
+    validate_write(mesh, format, attrs)?;
+    let normals = opts.normals && !mesh.normals.is_empty();
+    Ok(obj::write_files(mesh, normals, stem))
+}
+
+/// The checks every writer's input passes.
+fn validate_write(mesh: &TriMesh, format: Format, attrs: &Attributes) -> Result<(), IoError> {
+    mesh.check()
+        .map_err(|message| IoError::InvalidMesh { message })?;
+    if mesh.triangles.is_empty() {
+        return Err(IoError::Empty);
+    }
+    if let Some(v) = mesh.positions.iter().position(|p| !p.is_finite()) {
+        return Err(IoError::NonFinite { vertex: v as u64 });
+    }
+    attrs.check(mesh, format)
 }
 
 /// Runs a reader, turning a panic inside it into [`IoError::Panic`].

@@ -1,9 +1,12 @@
 //! Stanford PLY through `ply-rs-bw`: ASCII, binary little and big endian.
-//! Reads the `vertex` element's `x y z` (any scalar type) and `nx ny nz`,
+//! Reads the `vertex` element's `x y z` (any scalar type), `nx ny nz`,
+//! texture coordinates (`s t`, `u v`, `texture_u texture_v`) and colour
+//! (`red green blue [alpha]`, sRGB, stored linear as glTF's `COLOR_0`),
 //! `face` lists named `vertex_indices` or `vertex_index` (any integer list
 //! type, polygons triangulated by [`super::polygon`]) and `tristrips` lists (strips separated by
 //! `-1`, as in the original Cyberware scans). Other elements and properties
-//! are skipped. Writes doubles and `list uchar uint vertex_indices`.
+//! are skipped. Writes doubles, `float s t`, `uchar red green blue
+//! [alpha]` and `list uchar uint vertex_indices`.
 //!
 //! Element types implement `PropertyAccess` directly so that no per-property
 //! map is built; face lists of `int`/`uint` are filled in place.
@@ -21,10 +24,14 @@ use ply_rs_bw::writer::Writer;
 use super::{Attributes, Format, Imported, IoError};
 use crate::TriMesh;
 
-/// A `vertex` element: position and optional normal.
+/// A `vertex` element: position, optional normal, texture coordinates
+/// (`s t`, `u v`, `texture_u texture_v` or `texture_s texture_t`) and colour
+/// (`red green blue [alpha]`, integers scaled by their type's maximum).
 struct PlyVertex {
     p: [f64; 3],
     n: [f64; 3],
+    uv: [f32; 2],
+    rgba: [f32; 4],
 }
 
 impl PlyVertex {
@@ -36,11 +43,41 @@ impl PlyVertex {
             "nx" => &mut self.n[0],
             "ny" => &mut self.n[1],
             "nz" => &mut self.n[2],
-            _ => return PropertyAccessResult::Ignored,
+            _ => return self.set_f32(name, v as f32, 1.0),
         };
         *slot = v;
         PropertyAccessResult::Set
     }
+
+    /// Sets a texture coordinate or a colour channel; `max` is the value
+    /// of full intensity for the property's type (1 for floats).
+    fn set_f32(&mut self, name: &str, v: f32, max: f32) -> PropertyAccessResult {
+        if let Some(k) = uv_axis(name) {
+            self.uv[k] = v;
+        } else if let Some(k) = COLOR_NAMES.iter().position(|c| *c == name) {
+            self.rgba[k] = v / max;
+        } else {
+            return PropertyAccessResult::Ignored;
+        }
+        PropertyAccessResult::Set
+    }
+}
+
+/// The texture coordinate property names, (u, v) pairs in order of preference.
+const UV_NAMES: [[&str; 2]; 4] = [
+    ["s", "t"],
+    ["u", "v"],
+    ["texture_u", "texture_v"],
+    ["texture_s", "texture_t"],
+];
+
+/// The colour channel property names.
+const COLOR_NAMES: [&str; 4] = ["red", "green", "blue", "alpha"];
+
+fn uv_axis(name: &str) -> Option<usize> {
+    UV_NAMES
+        .iter()
+        .find_map(|pair| pair.iter().position(|n| *n == name))
 }
 
 impl PropertyAccess for PlyVertex {
@@ -48,19 +85,27 @@ impl PropertyAccess for PlyVertex {
         PlyVertex {
             p: [0.0; 3],
             n: [0.0; 3],
+            uv: [0.0; 2],
+            rgba: [1.0; 4],
         }
     }
     fn set_char(&mut self, name: &str, v: i8) -> PropertyAccessResult {
         self.set(name, f64::from(v))
     }
     fn set_uchar(&mut self, name: &str, v: u8) -> PropertyAccessResult {
-        self.set(name, f64::from(v))
+        match self.set_f32(name, f32::from(v), 255.0) {
+            PropertyAccessResult::Ignored => self.set(name, f64::from(v)),
+            r => r,
+        }
     }
     fn set_short(&mut self, name: &str, v: i16) -> PropertyAccessResult {
         self.set(name, f64::from(v))
     }
     fn set_ushort(&mut self, name: &str, v: u16) -> PropertyAccessResult {
-        self.set(name, f64::from(v))
+        match self.set_f32(name, f32::from(v), 65535.0) {
+            PropertyAccessResult::Ignored => self.set(name, f64::from(v)),
+            r => r,
+        }
     }
     fn set_int(&mut self, name: &str, v: i32) -> PropertyAccessResult {
         self.set(name, f64::from(v))
@@ -208,7 +253,7 @@ pub(super) fn read(bytes: &[u8]) -> Result<Imported, IoError> {
     }
 
     let mut vertices: Option<Vec<PlyVertex>> = None;
-    let mut has_normals = false;
+    let (mut has_normals, mut has_uv, mut has_color, mut has_alpha) = (false, false, false, false);
     let mut faces: Vec<PlyFace> = Vec::new();
     let mut strips: Vec<PlyFace> = Vec::new();
     for (name, def) in &header.elements {
@@ -224,12 +269,16 @@ pub(super) fn read(bytes: &[u8]) -> Result<Imported, IoError> {
                         )));
                     }
                 }
-                has_normals = ["nx", "ny", "nz"].iter().all(|a| {
+                let scalar = |a: &str| {
                     matches!(
-                        def.properties.get(*a).map(|p| &p.data_type),
+                        def.properties.get(a).map(|p| &p.data_type),
                         Some(PropertyType::Scalar(_))
                     )
-                });
+                };
+                has_normals = ["nx", "ny", "nz"].into_iter().all(scalar);
+                has_uv = UV_NAMES.iter().any(|pair| pair.iter().all(|a| scalar(a)));
+                has_color = COLOR_NAMES[..3].iter().copied().all(scalar);
+                has_alpha = scalar("alpha");
                 vertices = Some(
                     Parser::<PlyVertex>::new()
                         .read_payload_for_element(&mut reader, def, &header)
@@ -271,6 +320,19 @@ pub(super) fn read(bytes: &[u8]) -> Result<Imported, IoError> {
         },
         ..Default::default()
     };
+    if has_uv {
+        // PLY's v grows upwards, glTF's downwards.
+        let uv = vertices.iter().map(|v| [v.uv[0], 1.0 - v.uv[1]]).collect();
+        mesh.attributes.texcoords = vec![uv];
+    }
+    if has_color {
+        let lin = crate::appearance::srgb_to_linear;
+        mesh.attributes.colors = vertices
+            .iter()
+            .map(|v| [lin(v.rgba[0]), lin(v.rgba[1]), lin(v.rgba[2]), v.rgba[3]])
+            .collect();
+        mesh.attributes.color_alpha = has_alpha;
+    }
     drop(vertices);
     let check = |face: u64, i: i64| -> Result<u32, IoError> {
         if i < 0 || i >= nv as i64 {
@@ -327,6 +389,10 @@ pub(super) fn read(bytes: &[u8]) -> Result<Imported, IoError> {
 struct OutVertex<'a> {
     p: DVec3,
     n: DVec3,
+    /// Texture coordinates in PLY's convention (v upwards).
+    uv: [f32; 2],
+    /// sRGB colour and alpha, 0–255.
+    rgba: [u8; 4],
     names: &'a [String],
     extra: Vec<f32>,
 }
@@ -341,12 +407,24 @@ impl PropertyAccess for OutVertex<'_> {
         OutVertex {
             p: DVec3::ZERO,
             n: DVec3::ZERO,
+            uv: [0.0; 2],
+            rgba: [255; 4],
             names: &[],
             extra: Vec::new(),
         }
     }
     fn get_float(&self, name: &str) -> Option<f32> {
-        extra_value(self.names, &self.extra, name)
+        match name {
+            "s" => Some(self.uv[0]),
+            "t" => Some(self.uv[1]),
+            _ => extra_value(self.names, &self.extra, name),
+        }
+    }
+    fn get_uchar(&self, name: &str) -> Option<u8> {
+        COLOR_NAMES
+            .iter()
+            .position(|c| *c == name)
+            .map(|k| self.rgba[k])
     }
     fn get_double(&self, name: &str) -> Option<f64> {
         Some(match name {
@@ -415,6 +493,29 @@ pub(super) fn write(
     }
     let float =
         |name: &String| PropertyDef::new(name.clone(), PropertyType::Scalar(ScalarType::Float));
+    let nv = mesh.positions.len();
+    let uv = mesh
+        .attributes
+        .texcoords
+        .first()
+        .filter(|set| set.len() == nv);
+    if uv.is_some() {
+        for n in ["s", "t"] {
+            vdef.properties.add(float(&n.to_string()));
+        }
+    }
+    let colors = &mesh.attributes.colors;
+    let channels = match (colors.len() == nv, mesh.attributes.color_alpha) {
+        (false, _) => 0,
+        (true, false) => 3,
+        (true, true) => 4,
+    };
+    for n in &COLOR_NAMES[..channels] {
+        vdef.properties.add(PropertyDef::new(
+            n.to_string(),
+            PropertyType::Scalar(ScalarType::UChar),
+        ));
+    }
     let vnames: Vec<String> = attrs.vertex.iter().map(|a| a.name.clone()).collect();
     vnames.iter().for_each(|n| vdef.properties.add(float(n)));
     let mut fdef = ElementDef::new("face".to_string());
@@ -438,6 +539,20 @@ pub(super) fn write(
                 mesh.normals[i]
             } else {
                 DVec3::ZERO
+            },
+            uv: uv.map_or([0.0; 2], |set| [set[i][0], 1.0 - set[i][1]]),
+            rgba: if channels == 0 {
+                [255; 4]
+            } else {
+                let c = colors[i];
+                let byte = |x: f32| (x.clamp(0.0, 1.0) * 255.0).round() as u8;
+                let srgb = crate::appearance::linear_to_srgb;
+                [
+                    byte(srgb(c[0])),
+                    byte(srgb(c[1])),
+                    byte(srgb(c[2])),
+                    byte(c[3]),
+                ]
             },
             names: &vnames,
             extra: attrs.vertex.iter().map(|a| a.values[i]).collect(),

@@ -13,6 +13,7 @@ use axum::response::{IntoResponse, Response};
 use axum::Json;
 use sha2::{Digest, Sha256};
 
+use super::bundle;
 use super::dto::{etag, job_href, Health, JobList, JobSummary, JobView};
 use super::jobs::{now_ms, CancelReason, Idempotency, InputInfo, Job, JobRecord, JobStatus};
 use super::params::{estimate_output, InputGeometry};
@@ -89,15 +90,19 @@ fn check_upload(svc: &Service, up: &Upload) -> Result<Checked, Problem> {
     };
     let loaded = pipeline::load(&up.mesh, up.file_name.as_deref(), up.format_hint, &read)
         .map_err(|e| Problem::from_job_error(&e))?;
-    if !up.buffers.is_empty() && loaded.format != Format::Gltf {
-        return Err(Problem::new(
-            ProblemKind::InvalidRequest,
+    if let Some(name) = unreferenced_part(&up.mesh, loaded.format, &read.external_buffers) {
+        let detail = if matches!(loaded.format, Format::Gltf | Format::Obj) {
             format!(
-                "extra parts are glTF buffers, but the mesh is {}; send only `mesh` and `params`",
+                "the part {name:?} is not a file that the {} model names",
                 loaded.format
-            ),
-        )
-        .with_field(up.buffers[0].0.clone()));
+            )
+        } else {
+            format!(
+                "extra parts are companion files of a .gltf or an OBJ, but the mesh is {}; send only `mesh` and `params`",
+                loaded.format
+            )
+        };
+        return Err(Problem::new(ProblemKind::InvalidRequest, detail).with_field(name));
     }
     // The repaired surface, kept in the reference for the engine.
     let tm = loaded.surface();
@@ -346,8 +351,29 @@ fn bad_query(e: axum::extract::rejection::QueryRejection) -> Problem {
     )
 }
 
-/// `GET /v1/jobs/{id}/result[?format=...]`: the result file; another format
-/// is re-encoded from the exact stored mesh.
+/// The first extra part (in name order) that the model does not name as a
+/// companion file, so that a misspelt part is refused rather than ignored.
+fn unreferenced_part(
+    mesh: &[u8],
+    format: Format,
+    parts: &HashMap<String, Vec<u8>>,
+) -> Option<String> {
+    let named = crate::io::companions::companion_names(mesh, format, parts);
+    let mut names: Vec<&String> = parts.keys().collect();
+    names.sort();
+    names.into_iter().find_map(|part| {
+        let alone = HashMap::from([(part.clone(), Vec::new())]);
+        let used = named
+            .iter()
+            .any(|c| crate::io::companions::find(&alone, &c.name).is_some());
+        (!used).then(|| part.clone())
+    })
+}
+
+/// `GET /v1/jobs/{id}/result[?format=...][&bundle=zip]`: the result file;
+/// another format is re-encoded from the exact stored mesh. With
+/// `bundle=zip`, a zip archive of the file and its companions (an OBJ's
+/// `.mtl` and texture images).
 pub async fn result(
     State(svc): State<AppState>,
     Path(id): Path<String>,
@@ -355,7 +381,7 @@ pub async fn result(
     headers: HeaderMap,
 ) -> Result<Response, Problem> {
     let Query(q) = query.map_err(bad_query)?;
-    only_params(&q, &["format"])?;
+    only_params(&q, &["format", "bundle"])?;
     let job = find(&svc, &id)?;
     let rec = job.snapshot();
     let wanted = match q.get("format") {
@@ -363,6 +389,17 @@ pub async fn result(
             Problem::new(ProblemKind::InvalidParameter, e.to_string()).with_field("format")
         })?),
         None => None,
+    };
+    let bundle = match q.get("bundle").map(String::as_str) {
+        None | Some("none") => false,
+        Some("zip") => true,
+        Some(other) => {
+            return Err(Problem::new(
+                ProblemKind::InvalidParameter,
+                format!("bundle must be zip or none, not {other:?}"),
+            )
+            .with_field("bundle"))
+        }
     };
     let expired = || {
         Problem::new(
@@ -388,52 +425,45 @@ pub async fn result(
         }
     };
     let format = wanted.unwrap_or(stored.format);
-    let (bytes, digest) = if format == stored.format {
-        let s = Arc::clone(&svc);
-        let rid = id.clone();
+    let stem = rec.result_stem();
+    let not_found = move |e: std::io::Error| match e.kind() {
+        std::io::ErrorKind::NotFound => expired(),
+        _ => Problem::internal("cannot read the result", e),
+    };
+    let s = Arc::clone(&svc);
+    let rid = id.clone();
+    let name = stem.clone();
+    let (bytes, digest) = if format == stored.format && !bundle {
         let bytes = blocking(move || s.store.read_result(&rid, format))
             .await?
-            .map_err(|e| match e.kind() {
-                std::io::ErrorKind::NotFound => expired(),
-                _ => Problem::internal("cannot read the result", e),
-            })?;
+            .map_err(not_found)?;
         (bytes, stored.sha256.clone())
     } else {
-        let s = Arc::clone(&svc);
-        let rid = id.clone();
         blocking(move || -> Result<(Vec<u8>, String), Problem> {
-            let mesh = s.store.read_result_mesh(&rid).map_err(|e| match e.kind() {
-                std::io::ErrorKind::NotFound => expired(),
-                _ => Problem::internal("cannot read the result", e),
-            })?;
-            let bytes = pipeline::encode(&mesh, format)
+            let mesh = s.store.read_result_mesh(&rid).map_err(not_found)?;
+            let mut files = pipeline::encode_files(&mesh, format, &Default::default(), &name)
                 .map_err(|e| Problem::internal("cannot re-encode the result", e))?;
+            if format == stored.format {
+                // The stored file keeps what re-encoding would not (quality attributes).
+                files[0].1 = s.store.read_result(&rid, format).map_err(not_found)?;
+            }
+            let bytes = if bundle {
+                bundle::zip(&files).map_err(|e| Problem::internal("cannot pack the result", e))?
+            } else {
+                files.swap_remove(0).1
+            };
             let digest = hex::encode(Sha256::digest(&bytes));
             Ok((bytes, digest))
         })
         .await??
     };
     let tag = etag(&digest);
-    let stem: String = rec
-        .input
-        .file_name
-        .as_deref()
-        .and_then(|n| std::path::Path::new(n).file_stem())
-        .and_then(|s| s.to_str())
-        .unwrap_or("mesh")
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect();
-    let disposition = format!(
-        "attachment; filename=\"{stem}-remeshed.{}\"",
-        format.extension()
-    );
+    let (file_name, mime) = if bundle {
+        (format!("{stem}.zip"), "application/zip")
+    } else {
+        (format!("{stem}.{}", format.extension()), format.mime())
+    };
+    let disposition = format!("attachment; filename=\"{file_name}\"");
     let not_modified = headers
         .get(header::IF_NONE_MATCH)
         .and_then(|v| v.to_str().ok())
@@ -444,10 +474,7 @@ pub async fn result(
         (StatusCode::OK, Body::from(bytes)).into_response()
     };
     let h = resp.headers_mut();
-    h.insert(
-        header::CONTENT_TYPE,
-        HeaderValue::from_static(format.mime()),
-    );
+    h.insert(header::CONTENT_TYPE, HeaderValue::from_static(mime));
     if let Ok(v) = HeaderValue::from_str(&disposition) {
         h.insert(header::CONTENT_DISPOSITION, v);
     }

@@ -163,6 +163,29 @@ pub struct JobRecord {
 }
 
 impl JobRecord {
+    /// The base name of the job's result files: the upload's file stem
+    /// (ASCII letters, digits, `-` and `_`, anything else as `_`; `mesh`
+    /// when there was no name) followed by `-remeshed`.
+    pub fn result_stem(&self) -> String {
+        let stem: String = self
+            .input
+            .file_name
+            .as_deref()
+            .and_then(|n| std::path::Path::new(n).file_stem())
+            .and_then(|s| s.to_str())
+            .unwrap_or("mesh")
+            .chars()
+            .map(|c| {
+                if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                    c
+                } else {
+                    '_'
+                }
+            })
+            .collect();
+        format!("{stem}-remeshed")
+    }
+
     /// `queued → running`: a worker takes the job. Returns `false` (and
     /// changes nothing) unless the job is queued, so a job cancelled or
     /// deleted while waiting is never started.

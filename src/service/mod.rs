@@ -27,6 +27,7 @@
 //! | [`telemetry`] | tracing setup, request ids, panic hook |
 //! | [`web`] | the web page at `/` and its embedded files |
 
+pub mod bundle;
 pub mod config;
 pub mod connections;
 pub mod dto;

@@ -242,7 +242,7 @@ impl Problem {
             IoError::TooLarge { .. } => {
                 Problem::new(ProblemKind::MeshTooLarge, e.to_string()).with_field("mesh")
             }
-            IoError::ExternalBuffer { uri } => {
+            IoError::ExternalBuffer { uri, .. } => {
                 Problem::new(ProblemKind::InvalidMesh, e.to_string()).with_field(uri.clone())
             }
             _ => Problem::new(ProblemKind::InvalidMesh, e.to_string()).with_field("mesh"),

@@ -252,7 +252,11 @@ fn execute(
     let out = pipeline::run(&input, &options, &mut observer)?;
     drop(input);
     let format = rec.params.output_format.unwrap_or(rec.input.format);
-    let encoded = pipeline::encode_with(&out.mesh, format, &out.attributes)?;
+    // The model file alone; an OBJ's library and images are packed on
+    // demand from the stored mesh (`bundle=zip`).
+    let encoded = pipeline::encode_files(&out.mesh, format, &out.attributes, &rec.result_stem())?
+        .swap_remove(0)
+        .1;
     let result = ResultInfo {
         format,
         bytes: encoded.len() as u64,

@@ -235,7 +235,9 @@ fn seam_fidelity(seams_in: &[[DVec3; 2]], seams_out: &[[DVec3; 2]], l: f64) -> (
         return (0.0, f64::INFINITY);
     }
     let index = SegmentIndex::new(seams_out.len(), |s| seams_out[s]);
-    let (within, total, max_d) = seams_in
+    // Collected in order and summed sequentially: a parallel reduction's
+    // grouping varies with scheduling, and the figure must not.
+    let per_segment: Vec<(f64, f64, f64)> = seams_in
         .par_iter()
         .map(|&[a, b]| {
             let len = a.distance(b);
@@ -254,10 +256,10 @@ fn seam_fidelity(seams_in: &[[DVec3; 2]], seams_out: &[[DVec3; 2]], l: f64) -> (
             }
             (within, len, max_d)
         })
-        .reduce(
-            || (0.0, 0.0, 0.0),
-            |x, y| (x.0 + y.0, x.1 + y.1, x.2.max(y.2)),
-        );
+        .collect();
+    let (within, total, max_d) = per_segment.iter().fold((0.0, 0.0, 0.0f64), |x, y| {
+        (x.0 + y.0, x.1 + y.1, x.2.max(y.2))
+    });
     (if total > 0.0 { within / total } else { 1.0 }, max_d)
 }
 

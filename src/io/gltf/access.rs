@@ -163,22 +163,15 @@ impl<'a> Buffers<'a> {
                     decode_data_uri(uri)
                         .map_err(|m| IoError::parse(format, format!("buffer {index}: {m}")))?,
                 ),
-                Some(uri) => {
-                    let ext = &self.opts.external_buffers;
-                    let found = ext.get(uri).or_else(|| {
-                        let decoded = percent_decode(uri)?;
-                        ext.get(&decoded)
-                            .or_else(|| ext.get(decoded.trim_start_matches("./")))
-                    });
-                    match found {
-                        Some(b) => Cow::Borrowed(b.as_slice()),
-                        None => {
-                            return Err(IoError::ExternalBuffer {
-                                uri: uri.to_string(),
-                            })
-                        }
+                Some(uri) => match crate::io::companions::find(&self.opts.external_buffers, uri) {
+                    Some(b) => Cow::Borrowed(b.as_slice()),
+                    None => {
+                        return Err(IoError::ExternalBuffer {
+                            format,
+                            uri: uri.to_string(),
+                        })
                     }
-                }
+                },
             };
             let declared = buffer.byte_length.0;
             if (raw.len() as u64) < declared {

@@ -3,8 +3,6 @@
 //! images they use, read from the input and written back unchanged. Image
 //! bytes are copied, never decoded or re-encoded.
 
-use std::collections::HashMap;
-
 use serde::Deserialize;
 use serde_json::Value;
 
@@ -81,7 +79,14 @@ impl RawLook {
                         .map_err(|m| IoError::parse(format, format!("image {i}: {m}")))?;
                     (b, None)
                 } else {
-                    (external(&buffers.opts.external_buffers, &uri)?, Some(uri))
+                    (
+                        crate::io::companions::require(
+                            &buffers.opts.external_buffers,
+                            &uri,
+                            format,
+                        )?,
+                        Some(uri),
+                    )
                 }
             } else {
                 return Err(IoError::parse(
@@ -132,23 +137,6 @@ fn view_bytes(buffers: &mut Buffers, v: usize, image: usize) -> Result<Vec<u8>, 
         });
     }
     Ok(buffer[start as usize..end as usize].to_vec())
-}
-
-/// An external file by the name the document gives it (as written,
-/// percent-decoded, without a leading `./`, or by its last path component,
-/// which is the name a browser gives an uploaded file).
-fn external(parts: &HashMap<String, Vec<u8>>, uri: &str) -> Result<Vec<u8>, IoError> {
-    let found = parts.get(uri).or_else(|| {
-        let decoded = percent_decode(uri)?;
-        let base = decoded.rsplit(['/', '\\']).next().unwrap_or(&decoded);
-        parts
-            .get(&decoded)
-            .or_else(|| parts.get(decoded.trim_start_matches("./")))
-            .or_else(|| parts.get(base))
-    });
-    found.cloned().ok_or_else(|| IoError::ExternalBuffer {
-        uri: uri.to_string(),
-    })
 }
 
 /// Writes `look` into the serialised document `doc`: textures and samplers

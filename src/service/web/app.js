@@ -216,6 +216,13 @@ function showDownloads(job) {
     a.dataset.format = f;
     return a;
   });
+  // OBJ's material library and textures are separate files: one zip holds them all.
+  const zip = document.createElement('a');
+  zip.href = `${api.resultUrl(job.id, 'obj')}&bundle=zip`;
+  zip.textContent = 'obj + mtl + textures (zip)';
+  zip.download = '';
+  zip.dataset.format = 'obj-zip';
+  items.push(zip);
   const stats = document.createElement('a');
   const blob = new Blob([JSON.stringify(job.stats, null, 2)], { type: 'application/json' });
   stats.href = URL.createObjectURL(blob);

@@ -35,7 +35,7 @@ use super::flip::Valences;
 use super::guards::{COLLAPSE_MAX_NORMAL_TURN_COS, COLLAPSE_MIN_QUALITY};
 use super::split::DEVIATION_FACTOR;
 use super::state::{State, COLLAPSE_FACTOR, CORNER, SMOOTH, SPLIT_FACTOR};
-use super::{Cancel, RemeshError};
+use super::RemeshError;
 use crate::bvh::closest_point_on_triangle;
 use crate::geometry::{triangle_cross, triangle_quality};
 use crate::mesh::{EdgeId, HalfedgeId, Handle, VertexId};
@@ -61,7 +61,7 @@ const VERY_SHORT: f64 = 0.5;
 const VERY_SHORT_STRETCH: f64 = 1.15;
 
 /// Collapses short edges in one sweep; returns the number of collapses.
-pub(super) fn collapse_short_edges(st: &mut State, cancel: &Cancel) -> Result<u64, RemeshError> {
+pub(super) fn collapse_short_edges(st: &mut State) -> Result<u64, RemeshError> {
     let mut count = 0u64;
     // Find the short edges in parallel (a pure scan), then collapse them in
     // index order, re-checking each one, so the result stays deterministic.
@@ -72,7 +72,7 @@ pub(super) fn collapse_short_edges(st: &mut State, cancel: &Cancel) -> Result<u6
         .then_some(e.0)
     });
     for (k, &i) in candidates.iter().enumerate() {
-        cancel.every(k as u64)?;
+        st.cancel.every(k as u64)?;
         let e = EdgeId(i);
         if st.mesh.is_edge_deleted(e) {
             continue;
@@ -331,7 +331,6 @@ fn valence_collapse_gain(st: &State, e: EdgeId, valences: &Valences) -> Option<i
 pub(super) fn collapse_for_valence(
     st: &mut State,
     valences: &mut Valences,
-    cancel: &Cancel,
 ) -> Result<(u64, Vec<u32>), RemeshError> {
     // Candidates from the valences at the start, found in parallel.
     let candidates: Vec<u32> = {
@@ -346,7 +345,7 @@ pub(super) fn collapse_for_valence(
     let mut count = 0u64;
     let mut touched: Vec<u32> = Vec::new();
     for (k, &i) in candidates.iter().enumerate() {
-        cancel.every(k as u64)?;
+        st.cancel.every(k as u64)?;
         // Earlier collapses change valences nearby: check again.
         let e = EdgeId(i);
         if valence_collapse_gain(st, e, valences).is_none_or(|g| g <= 0) {

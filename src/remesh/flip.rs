@@ -13,7 +13,7 @@ use rayon::prelude::*;
 
 use super::guards::{FLIP_MAX_DIHEDRAL_COS, FLIP_MIN_QUALITY};
 use super::state::State;
-use super::{Cancel, RemeshError};
+use super::RemeshError;
 use crate::geometry::{triangle_cross, triangle_quality};
 use crate::mesh::{EdgeId, HalfedgeId, Handle, Mesh, VertexId};
 
@@ -60,7 +60,6 @@ pub(super) fn flip_edges(
     st: &mut State,
     valences: &mut Valences,
     seed: Option<Vec<u32>>,
-    cancel: &Cancel,
 ) -> Result<u64, RemeshError> {
     debug_assert!(
         {
@@ -104,7 +103,7 @@ pub(super) fn flip_edges(
         let mut flipped = 0u64;
         let mut next: Vec<u32> = Vec::new();
         for (k, &(i, decided)) in work.iter().enumerate() {
-            cancel.every(k as u64)?;
+            st.cancel.every(k as u64)?;
             let e = EdgeId(i);
             if st.mesh.is_edge_deleted(e) {
                 continue;

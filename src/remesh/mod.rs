@@ -35,7 +35,7 @@ pub use options::{
 };
 
 use serde::{Deserialize, Serialize};
-use std::cell::RefCell;
+use std::sync::Mutex;
 use std::time::Instant;
 
 use crate::mesh::Mesh;
@@ -88,8 +88,9 @@ pub struct Progress {
 
 /// Receives progress and may cancel a running remesh. Checked between passes
 /// and every few thousand operations inside a pass, so cancellation takes
-/// effect within a fraction of a second.
-pub trait Observer {
+/// effect within a fraction of a second. `Send`, because the check may run
+/// on any thread of the job's pool.
+pub trait Observer: Send {
     /// Called at the start of every pass.
     fn progress(&mut self, _progress: &Progress) {}
     /// Return true to stop the remesh with [`RemeshError::Cancelled`].
@@ -302,21 +303,22 @@ fn run(
 ) -> Result<RemeshOutput, RemeshError> {
     let start = Instant::now();
     let iterations = options.iterations;
-    let observer = RefCell::new(observer);
-    let is_cancelled = || observer.borrow().is_cancelled();
+    // Behind a mutex so that the cancellation check is `Sync` and can be
+    // shared with the pool; it is taken between units of work only.
+    let observer = Mutex::new(observer);
+    let lock = || observer.lock().unwrap_or_else(|p| p.into_inner());
+    let is_cancelled = || lock().is_cancelled();
     let cancel = Cancel {
         asked: &is_cancelled,
     };
     // Reports the pass about to run, then honours a cancel request.
     let enter = |iteration: u32, pass: Pass| -> Result<(), RemeshError> {
-        observer
-            .borrow_mut()
-            .progress(&Progress::at(iteration, iterations, pass));
+        lock().progress(&Progress::at(iteration, iterations, pass));
         cancel.now()
     };
 
     enter(0, Pass::Prepare)?;
-    let mut st = State::new(input, options, pool)?;
+    let mut st = State::new(input, options, pool, cancel)?;
     // Only adaptive jobs measure their input against the size field; uniform
     // ones measure against L and need no copy.
     let input_vertex_target = if options.sizing == Sizing::Adaptive {
@@ -332,7 +334,7 @@ fn run(
     for it in 1..=iterations {
         let before = report.seconds;
         let (mut ir, split_renumbered) =
-            iteration(&mut st, options, &cancel, &mut report.seconds, &|pass| {
+            iteration(&mut st, options, &mut report.seconds, &|pass| {
                 enter(it, pass)
             })?;
         renumbered |= split_renumbered;
@@ -348,9 +350,8 @@ fn run(
         // Part of the last iteration's progress: no new report, so the
         // fraction stays monotone.
         cancel.now()?;
-        (report.repair_flips, report.repair_moves) = timed(&mut report.seconds.flip, || {
-            repair::final_repair(&mut st, &cancel)
-        })?;
+        (report.repair_flips, report.repair_moves) =
+            timed(&mut report.seconds.flip, || repair::final_repair(&mut st))?;
     }
     let (mesh, vertex_target) = st.finish();
     mesh.validate()
@@ -371,7 +372,6 @@ fn run(
 fn iteration(
     st: &mut State,
     options: &RemeshOptions,
-    cancel: &Cancel,
     t: &mut PassTimes,
     enter: &dyn Fn(Pass) -> Result<(), RemeshError>,
 ) -> Result<(IterationReport, bool), RemeshError> {
@@ -380,8 +380,7 @@ fn iteration(
     if options.split {
         enter(Pass::Split)?;
         ir.splits = timed(&mut t.split, || {
-            let n =
-                split::split_long_edges(st, cancel)? + split::split_deviating_edges(st, cancel)?;
+            let n = split::split_long_edges(st)? + split::split_deviating_edges(st)?;
             if n as usize * 4 > st.mesh.face_count() {
                 st.renumber();
                 renumbered = true;
@@ -391,13 +390,11 @@ fn iteration(
     }
     if options.collapse {
         enter(Pass::Collapse)?;
-        ir.collapses = timed(&mut t.collapse, || {
-            collapse::collapse_short_edges(st, cancel)
-        })?;
+        ir.collapses = timed(&mut t.collapse, || collapse::collapse_short_edges(st))?;
     }
     if options.flip {
         enter(Pass::Flip)?;
-        let (flips, collapses) = timed(&mut t.flip, || equalize_valences(st, options, cancel))?;
+        let (flips, collapses) = timed(&mut t.flip, || equalize_valences(st, options))?;
         ir.flips = flips;
         ir.collapses += collapses;
     }
@@ -420,19 +417,15 @@ fn timed<T>(
 /// Pass 3: flips toward regular valence, then, when collapses are on, the
 /// valence-driven collapses of the irregular pairs flips cannot fix, and
 /// flips again around the merged vertices. Returns (flips, collapses).
-fn equalize_valences(
-    st: &mut State,
-    options: &RemeshOptions,
-    cancel: &Cancel,
-) -> Result<(u64, u64), RemeshError> {
+fn equalize_valences(st: &mut State, options: &RemeshOptions) -> Result<(u64, u64), RemeshError> {
     let mut valences = flip::Valences::of(st);
-    let mut flips = flip::flip_edges(st, &mut valences, None, cancel)?;
+    let mut flips = flip::flip_edges(st, &mut valences, None)?;
     let mut collapses = 0;
     if options.collapse {
-        let (n, seed) = collapse::collapse_for_valence(st, &mut valences, cancel)?;
+        let (n, seed) = collapse::collapse_for_valence(st, &mut valences)?;
         collapses = n;
         if n > 0 {
-            flips += flip::flip_edges(st, &mut valences, Some(seed), cancel)?;
+            flips += flip::flip_edges(st, &mut valences, Some(seed))?;
         }
     }
     Ok((flips, collapses))
@@ -452,11 +445,9 @@ fn smooth(
         if relax && options.project {
             enter(Pass::Relax)?;
             enter(Pass::Project)?;
-            let start = Instant::now();
-            let (limited, relax_seconds) = relax::relax_and_project(st);
-            ir.project_moves_limited += limited;
-            t.relax += relax_seconds;
-            t.project += start.elapsed().as_secs_f64() - relax_seconds;
+            let relaxed = timed(&mut t.relax, || Ok(relax::relax_targets(st)))?;
+            ir.project_moves_limited +=
+                timed(&mut t.project, || Ok(relax::project_points(st, &relaxed)))?;
             continue;
         }
         if relax {
@@ -478,8 +469,9 @@ fn smooth(
 const CANCEL_STRIDE: u64 = 4096;
 
 /// The one cancellation check every pass shares.
+#[derive(Clone, Copy)]
 pub(super) struct Cancel<'a> {
-    asked: &'a dyn Fn() -> bool,
+    asked: &'a (dyn Fn() -> bool + Sync),
 }
 
 impl Cancel<'_> {

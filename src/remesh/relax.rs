@@ -62,17 +62,6 @@ pub(super) fn relax_tangentially(st: &mut State) -> u64 {
     guarded_move(st, &targets, false)
 }
 
-/// One step of tangential relaxation followed by the projection of the
-/// relaxed points, applied as one guarded move (with the input-orientation
-/// check). Returns the number of limited moves and the seconds spent on
-/// the relaxation targets.
-pub(super) fn relax_and_project(st: &mut State) -> (u64, f64) {
-    let t = std::time::Instant::now();
-    let relaxed = relax_targets(st);
-    let relax_seconds = t.elapsed().as_secs_f64();
-    (project_points(st, &relaxed), relax_seconds)
-}
-
 /// The direction of a rounded ridge through a smooth vertex, from the unit
 /// normals of its ring faces: when two of them are more than
 /// [`RIDGE_NORMAL_COS`] apart, the ring folds over a crest (or into a
@@ -100,7 +89,7 @@ fn ridge_direction(normals: &[DVec3], mean: DVec3) -> Option<DVec3> {
 }
 
 /// Where relaxation sends every vertex (see the module docs).
-fn relax_targets(st: &State) -> Vec<DVec3> {
+pub(super) fn relax_targets(st: &State) -> Vec<DVec3> {
     let m = &st.mesh;
     let kind = &st.kind;
     let edge_line = &st.edge_line;
@@ -196,7 +185,7 @@ pub(super) fn project_to_input(st: &mut State) -> u64 {
 /// Moves every vertex to the projection onto the input of its point in
 /// `from` (a guarded move from its current position), updating the hints and
 /// sizes. Returns the number of limited moves.
-fn project_points(st: &mut State, from: &[DVec3]) -> u64 {
+pub(super) fn project_points(st: &mut State, from: &[DVec3]) -> u64 {
     let m = &st.mesh;
     let kind = &st.kind;
     let index = &st.index;

@@ -20,16 +20,16 @@ use super::guards::{
 };
 use super::relax::{settle, walk_closest};
 use super::state::{State, COLLAPSE_FACTOR, CORNER, SMOOTH, SPLIT_FACTOR};
-use super::{Cancel, RemeshError};
+use super::RemeshError;
 use crate::geometry::{triangle_cross, triangle_min_angle_cos, triangle_quality};
 use crate::mesh::{EdgeId, FaceId, Handle, VertexId};
 
 /// The sliver repair after the last iteration: flips, shape moves, and
 /// flips again around what the moves changed. Returns (flips, moves).
-pub(super) fn final_repair(st: &mut State, cancel: &Cancel) -> Result<(u64, u64), RemeshError> {
-    let first = repair_slivers(st, cancel)?;
-    let moves = improve_slivers(st, cancel)?;
-    Ok((first + repair_slivers(st, cancel)?, moves))
+pub(super) fn final_repair(st: &mut State) -> Result<(u64, u64), RemeshError> {
+    let first = repair_slivers(st)?;
+    let moves = improve_slivers(st)?;
+    Ok((first + repair_slivers(st)?, moves))
 }
 
 /// Final sweep after the last iteration: a triangle whose smallest angle is
@@ -40,7 +40,7 @@ pub(super) fn final_repair(st: &mut State, cancel: &Cancel) -> Result<(u64, u64)
 /// guards as every flip apply: no feature or boundary edge, nearly coplanar
 /// faces, no fold, no worse quality. Faces are visited in index order, so
 /// the result is deterministic. Returns the number of flips.
-pub(super) fn repair_slivers(st: &mut State, cancel: &Cancel) -> Result<u64, RemeshError> {
+pub(super) fn repair_slivers(st: &mut State) -> Result<u64, RemeshError> {
     // Only a flip changes a face or the quad across its longest edge, so a
     // sweep visits the faces below 30° at the start and, after that, only
     // the faces of flipped quads and their neighbours, in index order (a
@@ -77,7 +77,7 @@ pub(super) fn repair_slivers(st: &mut State, cancel: &Cancel) -> Result<u64, Rem
         while let Some(Reverse(fi)) = heap.pop() {
             in_heap[fi as usize] = false;
             visited += 1;
-            cancel.every(visited)?;
+            st.cancel.every(visited)?;
             let Some(e) = sliver_flip(st, FaceId(fi)) else {
                 continue;
             };
@@ -198,7 +198,7 @@ fn sliver_geometry_ok(old: [[DVec3; 3]; 2], new: [[DVec3; 3]; 2], tol: f64) -> b
 /// most [`SHAPE_BAND_SLACK`] more of the vertex's edges leave the length band.
 /// Vertices are visited in face order, so the result is deterministic.
 /// Returns the number of vertices moved.
-pub(super) fn improve_slivers(st: &mut State, cancel: &Cancel) -> Result<u64, RemeshError> {
+pub(super) fn improve_slivers(st: &mut State) -> Result<u64, RemeshError> {
     let mut moved = 0u64;
     // Each vertex is tried once per round; after the first round only the
     // vertices next to one that moved (their rings changed) are tried again.
@@ -209,7 +209,7 @@ pub(super) fn improve_slivers(st: &mut State, cancel: &Cancel) -> Result<u64, Re
         let mut next = vec![false; nv];
         let before = moved;
         for fi in 0..st.mesh.face_capacity() as u32 {
-            cancel.every(fi as u64)?;
+            st.cancel.every(fi as u64)?;
             let f = FaceId(fi);
             if st.mesh.is_face_deleted(f) {
                 continue;

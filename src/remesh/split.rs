@@ -14,7 +14,7 @@ use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
 use super::state::{State, SPLIT_FACTOR};
-use super::{Cancel, RemeshError};
+use super::RemeshError;
 use crate::geometry::triangle_cross;
 use crate::mesh::{EdgeId, Handle};
 
@@ -26,7 +26,7 @@ fn excess(st: &State, e: EdgeId) -> f64 {
 }
 
 /// Splits long edges until none is left; returns the number of splits.
-pub(super) fn split_long_edges(st: &mut State, cancel: &Cancel) -> Result<u64, RemeshError> {
+pub(super) fn split_long_edges(st: &mut State) -> Result<u64, RemeshError> {
     // Max-heap on the excess ratio (positive floats order like their bits);
     // ties go to the lower edge index, so the order is deterministic.
     // The long edges are found in parallel; the heap is built in O(n).
@@ -80,7 +80,7 @@ pub(super) fn split_long_edges(st: &mut State, cancel: &Cancel) -> Result<u64, R
                 }
             }
         }
-        cancel.every(count)?;
+        st.cancel.every(count)?;
     }
     Ok(count)
 }
@@ -113,7 +113,7 @@ const DEVIATION_NORMAL_COS: f64 = 0.866_025_403_784_438_6;
 /// Uniform sizing only (with or without `refine_curved`): adaptive sizing
 /// derives its lengths from a distance tolerance of its own, against which
 /// a fraction of the local target means nothing.
-pub(super) fn split_deviating_edges(st: &mut State, cancel: &Cancel) -> Result<u64, RemeshError> {
+pub(super) fn split_deviating_edges(st: &mut State) -> Result<u64, RemeshError> {
     if st.uniform.is_none() {
         return Ok(0);
     }
@@ -139,7 +139,7 @@ pub(super) fn split_deviating_edges(st: &mut State, cancel: &Cancel) -> Result<u
     });
     let mut count = 0u64;
     for (k, &(i, ends, p, face)) in candidates.iter().enumerate() {
-        cancel.every(k as u64)?;
+        st.cancel.every(k as u64)?;
         let e = EdgeId(i);
         if st.mesh.is_edge_deleted(e) {
             continue;

@@ -14,7 +14,7 @@ use std::sync::Arc;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::{RemeshError, RemeshOptions, Sizing};
+use super::{Cancel, RemeshError, RemeshOptions, Sizing};
 use crate::bvh::SurfaceIndex;
 use crate::curvature;
 use crate::features::anchors::{anchor_tips, anchor_turns, Neighborhood};
@@ -36,7 +36,7 @@ pub(super) const NO_LINE: u32 = u32::MAX;
 
 pub(super) use crate::sizing::{COLLAPSE_FACTOR, SPLIT_FACTOR};
 
-pub(super) struct State {
+pub(super) struct State<'c> {
     pub mesh: Mesh,
     /// The closest-point index over the input, shared with the job's
     /// [`Reference`].
@@ -69,6 +69,8 @@ pub(super) struct State {
     pub fixed_turns: u64,
     /// The worker pool of the parallel passes.
     pub pool: std::sync::Arc<rayon::ThreadPool>,
+    /// The one cancellation check the passes share.
+    pub cancel: Cancel<'c>,
 }
 
 /// Everything of [`State`] but the pool, built inside the pool.
@@ -90,11 +92,12 @@ pub(super) struct PartialState {
     fixed_turns: u64,
 }
 
-impl State {
+impl<'c> State<'c> {
     pub fn new(
         input: &Reference,
         options: &RemeshOptions,
         pool: rayon::ThreadPool,
+        cancel: Cancel<'c>,
     ) -> Result<Self, RemeshError> {
         let p = pool.install(|| Self::prepare(input, options))?;
         Ok(Self {
@@ -114,6 +117,7 @@ impl State {
             face_neighbors: p.face_neighbors,
             fixed_turns: p.fixed_turns,
             pool: std::sync::Arc::new(pool),
+            cancel,
         })
     }
 

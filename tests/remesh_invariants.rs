@@ -200,6 +200,44 @@ fn progress_is_reported_and_cancellation_stops_the_run() {
     assert_eq!(cancel.calls, 4);
 }
 
+/// Cancels from its `n`-th check on, counting every check.
+struct CancelAtCheck {
+    checks: std::sync::atomic::AtomicU32,
+    n: u32,
+    seen: Vec<Progress>,
+}
+
+impl Observer for CancelAtCheck {
+    fn progress(&mut self, p: &Progress) {
+        self.seen.push(*p);
+    }
+    fn is_cancelled(&self) -> bool {
+        self.checks
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+            + 1
+            >= self.n
+    }
+}
+
+#[test]
+fn a_cancel_during_preparation_stops_before_the_first_pass() {
+    let input = build(&shapes::icosphere(4));
+    let o = RemeshOptions::default().with_target_edge_length(0.05);
+    // The first check follows the Prepare report; the second is inside
+    // preparation, before any pass has run.
+    let mut obs = CancelAtCheck {
+        checks: 0.into(),
+        n: 2,
+        seen: Vec::new(),
+    };
+    assert_eq!(
+        remesh(&input, &o, &mut obs).unwrap_err(),
+        RemeshError::Cancelled
+    );
+    assert_eq!(obs.seen.len(), 1, "{:?}", obs.seen);
+    assert_eq!(obs.checks.into_inner(), 2);
+}
+
 #[test]
 fn invalid_options_name_their_field() {
     let input = build(&shapes::icosphere(1));

@@ -476,7 +476,7 @@ pub(super) struct Cancel<'a> {
 
 impl Cancel<'_> {
     /// Asks now: `Err(Cancelled)` when the observer wants to stop.
-    fn now(&self) -> Result<(), RemeshError> {
+    pub(super) fn now(&self) -> Result<(), RemeshError> {
         if (self.asked)() {
             Err(RemeshError::Cancelled)
         } else {

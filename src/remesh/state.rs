@@ -99,7 +99,7 @@ impl<'c> State<'c> {
         pool: rayon::ThreadPool,
         cancel: Cancel<'c>,
     ) -> Result<Self, RemeshError> {
-        let p = pool.install(|| Self::prepare(input, options))?;
+        let p = pool.install(|| Self::prepare(input, options, &cancel))?;
         Ok(Self {
             mesh: p.mesh,
             index: p.index,
@@ -121,7 +121,11 @@ impl<'c> State<'c> {
         })
     }
 
-    fn prepare(input: &Reference, options: &RemeshOptions) -> Result<PartialState, RemeshError> {
+    fn prepare(
+        input: &Reference,
+        options: &RemeshOptions,
+        cancel: &Cancel,
+    ) -> Result<PartialState, RemeshError> {
         // The reference's mesh is compact, so its surface is `mesh`'s
         // triangles, vertex for vertex.
         let mut mesh = input.mesh.clone();
@@ -156,6 +160,7 @@ impl<'c> State<'c> {
                     uniform_l,
                     diag,
                     area,
+                    cancel,
                 )
             },
         );
@@ -167,6 +172,7 @@ impl<'c> State<'c> {
             hint_seg,
             fixed_turns,
         } = reference?;
+        cancel.now()?;
         let nv = mesh.vertex_capacity();
         let mut hint_face = vec![0u32; nv];
         for f in mesh.faces() {
@@ -380,6 +386,7 @@ impl Derived {
         uniform_l: Option<f64>,
         diag: f64,
         area: f64,
+        cancel: &Cancel,
     ) -> Result<Self, RemeshError> {
         // The unit of min_crease_length: L, or the smallest adaptive target.
         let unit = uniform_l.unwrap_or_else(|| adaptive_options(options, diag).min_edge_length);
@@ -394,6 +401,7 @@ impl Derived {
             },
             seams,
         );
+        cancel.now()?;
         let nv = mesh.vertex_capacity();
         let is_feature = |a: u32, b: u32| features.is_feature_edge(a, b);
         let (sizing, size) = match options.sizing {
@@ -438,6 +446,7 @@ impl Derived {
                 (Some(field), sizes)
             }
         };
+        cancel.now()?;
         let mut kind = vec![SMOOTH; nv];
         let mut hint_seg = vec![0u32; nv];
         for v in 0..nv as u32 {

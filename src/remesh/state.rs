@@ -157,9 +157,11 @@ impl<'c> State<'c> {
                     tm,
                     input.surface_seams(),
                     options,
-                    uniform_l,
-                    diag,
-                    area,
+                    Scale {
+                        uniform_l,
+                        diag,
+                        area,
+                    },
                     cancel,
                 )
             },
@@ -383,11 +385,14 @@ impl Derived {
         tm: &TriMesh,
         seams: &[[u32; 2]],
         options: &RemeshOptions,
-        uniform_l: Option<f64>,
-        diag: f64,
-        area: f64,
+        scale: Scale,
         cancel: &Cancel,
     ) -> Result<Self, RemeshError> {
+        let Scale {
+            uniform_l,
+            diag,
+            area,
+        } = scale;
         // The unit of min_crease_length: L, or the smallest adaptive target.
         let unit = uniform_l.unwrap_or_else(|| adaptive_options(options, diag).min_edge_length);
         let features = detect_features_with_seams(
@@ -520,6 +525,17 @@ fn face_neighbors(tm: &TriMesh, start: &[u32], faces: &[u32]) -> Vec<[u32; 3]> {
 
 /// The sizing options of adaptive sizing: the tolerance's defaults with the
 /// caller's bounds and gradation.
+/// The input's scale as preparation measured it.
+struct Scale {
+    /// The target under uniform sizing (already checked against the
+    /// output limit), `None` under adaptive sizing.
+    uniform_l: Option<f64>,
+    /// The bounding-box diagonal.
+    diag: f64,
+    /// The surface area.
+    area: f64,
+}
+
 fn adaptive_options(options: &RemeshOptions, diag: f64) -> SizingOptions {
     let mut so = SizingOptions::for_tolerance(options.tolerance_for(diag), diag);
     if let Some(a) = options.min_edge_length {

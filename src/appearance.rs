@@ -22,8 +22,14 @@ pub struct VertexAttributes {
     /// Whether the colours carry alpha (a vec4 `COLOR_0`, a PLY `alpha`);
     /// writers emit RGB otherwise.
     pub color_alpha: bool,
+    /// Whether the mesh should carry `TANGENT` (its input had them): the
+    /// glTF writer then generates them with MikkTSpace, as it does for any
+    /// mesh whose material has a normal texture. Tangents themselves are
+    /// never stored or transferred.
+    #[serde(default)]
+    pub tangents: bool,
     /// What the reader found but does not carry (skins, morph targets,
-    /// tangents, further colour sets), so that a job can name it.
+    /// further colour sets), so that a job can name it.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub dropped: Vec<DroppedAttribute>,
 }
@@ -66,6 +72,7 @@ impl VertexAttributes {
             texcoords: vec![Vec::new(); self.texcoords.len()],
             colors: Vec::new(),
             color_alpha: self.color_alpha,
+            tangents: self.tangents,
             dropped: Vec::new(),
         }
     }
@@ -98,6 +105,7 @@ impl VertexAttributes {
                 order.iter().map(|&i| self.colors[i as usize]).collect()
             },
             color_alpha: self.color_alpha,
+            tangents: self.tangents,
             dropped: Vec::new(),
         }
     }
@@ -141,6 +149,9 @@ impl VertexAttributes {
             .collect();
         if !self.colors.is_empty() {
             names.push("COLOR_0".to_string());
+        }
+        if self.tangents {
+            names.push("TANGENT".to_string());
         }
         names
     }
@@ -242,6 +253,7 @@ mod tests {
             texcoords: vec![vec![[0.0, 1.0], [2.0, 3.0]], vec![[4.0, 5.0], [6.0, 7.0]]],
             colors: vec![[0.1, 0.2, 0.3, 1.0], [0.4, 0.5, 0.6, 0.5]],
             color_alpha: true,
+            tangents: false,
             dropped: Vec::new(),
         };
         assert_eq!(a.width(), 8);

@@ -264,3 +264,67 @@ fn a_hand_written_ply_with_u_v_and_colour_is_read() {
     assert!((mesh.attributes.colors[0][3] - 128.0 / 255.0).abs() < 1e-6);
     assert!(mesh.attributes.color_alpha);
 }
+
+/// A TANGENT and a NORMAL accessor, read back.
+type TangentsAndNormals = (Vec<[f32; 4]>, Vec<[f32; 3]>);
+
+/// The TANGENT accessor of a GLB's first primitive, with its NORMAL.
+fn tangents_of(glb: &[u8]) -> Option<TangentsAndNormals> {
+    let (doc, buffers, _) = gltf::import_slice(glb).unwrap();
+    let prim = doc.meshes().next()?.primitives().next()?;
+    let reader = prim.reader(|b| Some(&buffers[b.index()]));
+    Some((
+        reader.read_tangents()?.collect(),
+        reader.read_normals()?.collect(),
+    ))
+}
+
+#[test]
+fn tangents_are_generated_for_an_input_that_had_them() {
+    let png = checker_png();
+    let mut cube = io::with_split_normals(&atlas_cube(&png), 45.0, &[]);
+    cube.attributes.tangents = true;
+    let glb = io::write(&cube, Format::Glb, &WriteOptions::default()).unwrap();
+    let (t, n) = tangents_of(&glb).expect("TANGENT written");
+    assert_eq!(t.len(), n.len());
+    let input = pipeline::load(&glb, Some("in.glb"), None, &ReadOptions::default()).unwrap();
+    let options = RemeshOptions {
+        target_edge_ratio: Some(0.02),
+        ..RemeshOptions::default()
+    };
+    let job = pipeline::run(&input, &options, &mut NoObserver).unwrap();
+    let a = &job.stats.attributes;
+    assert_eq!(a.input, ["TEXCOORD_0", "TANGENT"]);
+    assert_eq!(a.output, ["TEXCOORD_0", "TANGENT"]);
+    assert!(a.dropped.is_empty(), "{:?}", a.dropped);
+    let out = pipeline::encode(&job.mesh, Format::Glb).unwrap();
+    let (t, n) = tangents_of(&out).expect("TANGENT regenerated");
+    assert!(t.len() >= job.mesh.positions.len());
+    for (t, n) in t.iter().zip(&n) {
+        let dot = t[0] * n[0] + t[1] * n[1] + t[2] * n[2];
+        let len = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
+        assert!(dot.abs() < 1e-3 && (len - 1.0).abs() < 1e-3, "{t:?} {n:?}");
+        assert!(t[3] == 1.0 || t[3] == -1.0, "{t:?}");
+    }
+}
+
+#[test]
+fn a_normal_map_gets_tangents_and_a_mesh_without_uvs_gets_none() {
+    let png = checker_png();
+    let mut cube = io::with_split_normals(&atlas_cube(&png), 45.0, &[]);
+    let m = cube.labels[0].material.as_mut().unwrap();
+    m.gltf.as_mut().unwrap()["normalTexture"] = serde_json::json!({"index": 0});
+    let glb = io::write(&cube, Format::Glb, &WriteOptions::default()).unwrap();
+    let (t, _) = tangents_of(&glb).expect("a normal map gets tangents");
+    // u runs along one axis of each face: the tangent is that axis.
+    assert!(
+        t.iter()
+            .all(|t| t[..3].iter().filter(|c| c.abs() > 0.999).count() == 1),
+        "{t:?}"
+    );
+
+    let mut bare = io::with_split_normals(&shapes::icosphere(2), 45.0, &[]);
+    bare.attributes.tangents = true;
+    let glb = io::write(&bare, Format::Glb, &WriteOptions::default()).unwrap();
+    assert!(tangents_of(&glb).is_none(), "no UVs, no tangent basis");
+}

@@ -357,11 +357,19 @@ fn attributes_that_are_not_carried_are_named() {
         .iter()
         .map(|d| d.name.as_str())
         .collect();
-    assert_eq!(
-        names,
-        ["TANGENT", "COLOR_1"],
-        "{:?}",
-        job.stats.attributes.dropped
-    );
-    assert_eq!(job.stats.attributes.output, ["TEXCOORD_0"]);
+    // Tangents are generated again for the new surface, not dropped.
+    assert_eq!(names, ["COLOR_1"], "{:?}", job.stats.attributes.dropped);
+    assert_eq!(job.stats.attributes.output, ["TEXCOORD_0", "TANGENT"]);
+
+    // Without texture coordinates there is no basis to generate them from.
+    let bare = io::write(&shapes::icosphere(2), Format::Glb, &WriteOptions::default()).unwrap();
+    let bare = edit_glb(&bare, |doc| {
+        let attrs = &mut doc["meshes"][0]["primitives"][0]["attributes"];
+        attrs["TANGENT"] = attrs["POSITION"].clone();
+    });
+    let job = remesh(&bare);
+    let dropped = &job.stats.attributes.dropped;
+    assert_eq!(dropped.len(), 1, "{dropped:?}");
+    assert_eq!(dropped[0].name, "TANGENT");
+    assert!(job.stats.attributes.output.is_empty());
 }

@@ -28,6 +28,7 @@ mod ply;
 pub mod polygon;
 pub(crate) mod result_mesh;
 mod stl;
+mod tangents;
 mod text;
 
 use std::collections::HashMap;
@@ -137,11 +138,23 @@ pub fn write_with_attributes(
     let normals = opts.normals && !mesh.normals.is_empty();
     match format {
         Format::Obj => Ok(obj::write(mesh, normals, None)),
-        Format::Gltf | Format::Glb if !attrs.is_empty() => {
-            let (split, extra) = attributes::per_corner(mesh, attrs);
-            gltf::write(&split, format, normals, &extra)
+        Format::Gltf | Format::Glb => {
+            let (split, mut extra) = if attrs.is_empty() {
+                (std::borrow::Cow::Borrowed(mesh), Vec::new())
+            } else {
+                let (m, e) = attributes::per_corner(mesh, attrs);
+                (std::borrow::Cow::Owned(m), e)
+            };
+            if normals && tangents::wanted(&split) {
+                let (m, t, origin) = tangents::with_tangents(&split);
+                for a in &mut extra {
+                    a.values = origin.iter().map(|&o| a.values[o as usize]).collect();
+                }
+                gltf::write(&m, format, normals, &extra, Some(&t))
+            } else {
+                gltf::write(&split, format, normals, &extra, None)
+            }
         }
-        Format::Gltf | Format::Glb => gltf::write(mesh, format, normals, &[]),
         Format::Stl => Ok(stl::write(mesh, opts.binary)),
         Format::Ply => ply::write(mesh, opts.binary, normals, attrs),
         Format::Off => Ok(off::write(mesh)),

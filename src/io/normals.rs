@@ -35,7 +35,8 @@ fn edge_key(a: u32, b: u32) -> u64 {
 /// by label changes and by boundary or non-manifold edges. The first fan of
 /// each input vertex keeps the vertex's index, so `positions[..n]` equals
 /// the input's; extra copies are appended. Triangles, face order, labels and
-/// face labels are preserved. Unreferenced vertices are kept with a zero
+/// face labels are preserved, and each copy carries its vertex's texture
+/// coordinates and colour. Unreferenced vertices are kept with a zero
 /// normal. Any normals already on `mesh` are replaced.
 ///
 /// # Panics
@@ -92,6 +93,8 @@ pub fn with_split_normals(
     let mut class_vertex = vec![u32::MAX; corners];
     let mut taken = vec![false; n];
     let mut positions = mesh.positions.clone();
+    // For each vertex of the result, the vertex of `mesh` it copies.
+    let mut origin: Vec<u32> = (0..n as u32).collect();
     for c in 0..corners {
         let r = fans.find(c as u32) as usize;
         if class_vertex[r] != u32::MAX {
@@ -101,6 +104,7 @@ pub fn with_split_normals(
         if taken[v as usize] {
             class_vertex[r] = positions.len() as u32;
             positions.push(mesh.positions[v as usize]);
+            origin.push(v);
         } else {
             taken[v as usize] = true;
             class_vertex[r] = v;
@@ -140,7 +144,13 @@ pub fn with_split_normals(
         normals,
         face_labels: mesh.face_labels.clone(),
         labels: mesh.labels.clone(),
-        attributes: Default::default(),
+        attributes: if mesh.attributes.is_empty() && !mesh.attributes.tangents {
+            Default::default()
+        } else {
+            let mut a = mesh.attributes.select(&origin);
+            a.dropped = mesh.attributes.dropped.clone();
+            a
+        },
         appearance: mesh.appearance.clone(),
     }
 }

@@ -63,7 +63,8 @@ pub fn encode(m: &TriMesh) -> io::Result<Vec<u8>> {
         }
     }
     put_u64(&mut out, a.colors.len() as u64);
-    out.push(u8::from(a.color_alpha));
+    // Bit 0: the colours carry alpha; bit 1: the mesh carries tangents.
+    out.push(u8::from(a.color_alpha) | (u8::from(a.tangents) << 1));
     for x in a.colors.iter().flatten() {
         out.extend_from_slice(&x.to_le_bytes());
     }
@@ -168,7 +169,9 @@ pub fn decode(bytes: &[u8]) -> io::Result<TriMesh> {
             m.attributes.texcoords.push(set);
         }
         let nc = r.count(16)?;
-        m.attributes.color_alpha = r.take(1)?[0] != 0;
+        let flags = r.take(1)?[0];
+        m.attributes.color_alpha = flags & 1 != 0;
+        m.attributes.tangents = flags & 2 != 0;
         m.attributes.colors = (0..nc)
             .map(|_| Ok([r.f32()?, r.f32()?, r.f32()?, r.f32()?]))
             .collect::<io::Result<_>>()?;

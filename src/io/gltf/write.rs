@@ -95,6 +95,7 @@ pub(in crate::io) fn write(
     format: Format,
     normals: bool,
     extra: &[Attribute],
+    tangents: Option<&[[f32; 4]]>,
 ) -> Result<Vec<u8>, IoError> {
     let nv = mesh.positions.len();
     let f32s = |v: DVec3| [v.x as f32, v.y as f32, v.z as f32];
@@ -160,6 +161,11 @@ pub(in crate::io) fn write(
     for c in &attrs.colors {
         c[..color_width]
             .iter()
+            .for_each(|x| bin.extend_from_slice(&x.to_le_bytes()));
+    }
+    let tangent_at = bin.len();
+    for t in tangents.unwrap_or_default() {
+        t.iter()
             .for_each(|x| bin.extend_from_slice(&x.to_le_bytes()));
     }
     // Images go into the binary chunk of a GLB, 4-byte aligned.
@@ -295,6 +301,20 @@ pub(in crate::io) fn write(
             None,
         );
         attributes.insert(Checked::Valid(Semantic::Colors(0)), acc);
+    }
+    if let Some(t) = tangents {
+        let view = buffer_view(&mut root, tangent_at, t.len() * 16, Target::ArrayBuffer);
+        let acc = accessor(
+            &mut root,
+            view,
+            0,
+            nv,
+            ComponentType::F32,
+            Type::Vec4,
+            None,
+            None,
+        );
+        attributes.insert(Checked::Valid(Semantic::Tangents), acc);
     }
     let image_views: Vec<usize> = image_spans
         .iter()

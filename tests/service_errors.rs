@@ -160,6 +160,24 @@ fn bad_parameters_name_their_field() {
             "{params}: {p}"
         );
     }
+    // A huge value is not echoed back: the detail is an excerpt.
+    let long = "x".repeat(50_000);
+    let r = s.submit(
+        "cube.obj",
+        cube.clone(),
+        Some(json!({"sizing": long})),
+        vec![],
+    );
+    let p = assert_problem(r, 422, Some("sizing"));
+    let detail = p["detail"].as_str().unwrap();
+    assert!(
+        detail.len() <= 1024 && detail.contains("bytes in all"),
+        "{detail}"
+    );
+    // A `params` part beyond 64 KiB is refused before it is parsed.
+    let big = json!({"iterations": 3, "padding": "y".repeat(70_000)});
+    let r = s.submit("cube.obj", cube.clone(), Some(big), vec![]);
+    assert_problem(r, 413, Some("params"));
     // The same names in the query string of a raw upload.
     assert_problem(
         s.submit_raw("model/obj", cube.clone(), "?bogus=1"),

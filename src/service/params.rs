@@ -12,6 +12,22 @@ use crate::params::{Params, PARAM_NAMES};
 use crate::remesh::{estimated_faces, RemeshError, RemeshOptions, Sizing};
 use crate::sizing::DEFAULT_MIN_EDGE_FACTOR;
 
+/// The largest `params` part, or query string of parameters: every
+/// parameter fits in a few hundred bytes, so anything near this is not a
+/// parameter set, and is refused before it is parsed.
+pub const MAX_PARAMS_BYTES: usize = 64 * 1024;
+
+fn check_params_size(len: usize) -> Result<(), Problem> {
+    if len > MAX_PARAMS_BYTES {
+        return Err(Problem::new(
+            ProblemKind::BodyTooLarge,
+            format!("the parameters are {len} bytes; at most {MAX_PARAMS_BYTES} are accepted"),
+        )
+        .with_field("params"));
+    }
+    Ok(())
+}
+
 fn bad(field: &str, message: impl std::fmt::Display) -> Problem {
     Problem::new(ProblemKind::InvalidParameter, format!("{field}: {message}")).with_field(field)
 }
@@ -36,6 +52,7 @@ impl Params {
     /// duplicate) would silently drop a value; it is refused with a 422
     /// naming it, as a repeated query parameter is.
     pub fn from_json_bytes(data: &[u8]) -> Result<Self, Problem> {
+        check_params_size(data.len())?;
         let v: Value = serde_json::from_slice(data).map_err(|e| {
             Problem::new(
                 ProblemKind::InvalidRequest,
@@ -52,6 +69,7 @@ impl Params {
     /// Parameters from `name=value` pairs (the query string). Numbers and
     /// booleans are read as JSON; anything else is a string.
     pub fn from_query(pairs: &[(String, String)]) -> Result<Self, Problem> {
+        check_params_size(pairs.iter().map(|(k, v)| k.len() + v.len() + 2).sum())?;
         let mut map = Map::new();
         for (k, raw) in pairs {
             let v = match serde_json::from_str::<Value>(raw) {

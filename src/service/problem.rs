@@ -165,6 +165,25 @@ pub struct Problem {
     pub retry_after: Option<u64>,
 }
 
+/// The longest `detail` a problem carries: messages quote what was sent
+/// (a value, a name), and a client must not get its megabytes echoed back.
+pub const MAX_DETAIL_BYTES: usize = 1024;
+/// The longest `field`: a part name or a parameter name.
+pub const MAX_FIELD_BYTES: usize = 256;
+
+/// `text` cut to at most `max` bytes on a character boundary, with an
+/// ellipsis and the full length when it was cut.
+fn excerpt(text: String, max: usize) -> String {
+    if text.len() <= max {
+        return text;
+    }
+    let mut end = max.saturating_sub(40);
+    while !text.is_char_boundary(end) {
+        end -= 1;
+    }
+    format!("{}… ({} bytes in all)", &text[..end], text.len())
+}
+
 impl Problem {
     /// A problem of `kind` with the given detail.
     pub fn new(kind: ProblemKind, detail: impl Into<String>) -> Self {
@@ -172,7 +191,7 @@ impl Problem {
             kind: format!("urn:isoremesh:problem:{}", kind.slug()),
             title: kind.title().to_string(),
             status: kind.status().as_u16(),
-            detail: detail.into(),
+            detail: excerpt(detail.into(), MAX_DETAIL_BYTES),
             field: None,
             retry_after: None,
         }
@@ -180,7 +199,7 @@ impl Problem {
 
     /// Names the field at fault.
     pub fn with_field(mut self, field: impl Into<String>) -> Self {
-        self.field = Some(field.into());
+        self.field = Some(excerpt(field.into(), MAX_FIELD_BYTES));
         self
     }
 

@@ -38,6 +38,7 @@ use crate::{Label, Material, TriMesh};
 
 mod access;
 mod look;
+mod primitives;
 mod write;
 
 pub use access::percent_decode;

@@ -1,5 +1,6 @@
-//! Writing a mesh as glTF or GLB: one vertex array, one index accessor per
-//! label (one primitive per material), materials, and the GLB container.
+//! Writing a mesh as glTF or GLB: one primitive per label (per material),
+//! each with its own vertex range and accessors, materials, and the GLB
+//! container.
 
 use std::collections::BTreeMap;
 
@@ -89,7 +90,9 @@ pub(crate) fn to_json_material(m: &Material) -> (json::Material, bool) {
 }
 
 /// Writes `mesh` as glTF or GLB; `extra` are per-vertex float attributes
-/// with their glTF names (`_NAME`), added to every primitive.
+/// with their glTF names (`_NAME`), and `tangents` one `TANGENT` per
+/// vertex. One primitive per label, each over its own vertex range
+/// ([`super::primitives`]) with its own accessors and bounds.
 pub(in crate::io) fn write(
     mesh: &TriMesh,
     format: Format,
@@ -97,7 +100,12 @@ pub(in crate::io) fn write(
     extra: &[Attribute],
     tangents: Option<&[[f32; 4]]>,
 ) -> Result<Vec<u8>, IoError> {
-    let nv = mesh.positions.len();
+    let grouped = super::primitives::by_label(mesh, extra, tangents);
+    let (mesh, extra, tangents) = (
+        &grouped.mesh,
+        &grouped.extra[..],
+        grouped.tangents.as_deref(),
+    );
     let f32s = |v: DVec3| [v.x as f32, v.y as f32, v.z as f32];
     let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|&p| f32s(p)).collect();
     if let Some(v) = positions
@@ -107,67 +115,55 @@ pub(in crate::io) fn write(
         // Finite in f64 but beyond the f32 range that glTF stores.
         return Err(IoError::NonFinite { vertex: v as u64 });
     }
-    let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
-    for p in &positions {
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
 
-    // Faces grouped by label (stable within a label), one primitive each.
-    let nl = mesh.label_count();
-    let mut per_label: Vec<Vec<u32>> = vec![Vec::new(); nl];
-    for (f, t) in mesh.triangles.iter().enumerate() {
-        per_label[mesh.face_label(f) as usize].extend_from_slice(t);
-    }
-
-    let mut bin: Vec<u8> =
-        Vec::with_capacity(nv * if normals { 24 } else { 12 } + mesh.triangles.len() * 12);
-    for p in &positions {
-        p.iter()
-            .for_each(|c| bin.extend_from_slice(&c.to_le_bytes()));
-    }
-    let normals_at = bin.len();
-    if normals {
-        for &n in &mesh.normals {
-            f32s(n.normalize_or_zero())
+    // The arrays, one after another in the buffer; each primitive's
+    // accessors view its own range of each.
+    let mut bin: Vec<u8> = Vec::with_capacity(
+        positions.len() * if normals { 24 } else { 12 } + mesh.triangles.len() * 12,
+    );
+    let push = |bin: &mut Vec<u8>, xs: &mut dyn Iterator<Item = f32>| -> (usize, usize) {
+        let at = bin.len();
+        xs.for_each(|x| bin.extend_from_slice(&x.to_le_bytes()));
+        (at, bin.len() - at)
+    };
+    let pos_span = push(&mut bin, &mut positions.iter().flatten().copied());
+    let normal_span = normals.then(|| {
+        push(
+            &mut bin,
+            &mut mesh
+                .normals
                 .iter()
-                .for_each(|c| bin.extend_from_slice(&c.to_le_bytes()));
+                .flat_map(|&n| f32s(n.normalize_or_zero())),
+        )
+    });
+    let index_at = bin.len();
+    for (vr, fr) in &grouped.ranges {
+        for t in &mesh.triangles[fr.clone()] {
+            for &i in t {
+                bin.extend_from_slice(&(i - vr.start as u32).to_le_bytes());
+            }
         }
     }
-    let indices_at = bin.len();
-    for list in &per_label {
-        list.iter()
-            .for_each(|i| bin.extend_from_slice(&i.to_le_bytes()));
-    }
-    let extra_at = bin.len();
-    for a in extra {
-        a.values
-            .iter()
-            .for_each(|x| bin.extend_from_slice(&x.to_le_bytes()));
-    }
-    // Texture coordinate sets, then the colour (vec3, or vec4 with alpha).
+    let index_span = (index_at, bin.len() - index_at);
+    let extra_spans: Vec<(usize, usize)> = extra
+        .iter()
+        .map(|a| push(&mut bin, &mut a.values.iter().copied()))
+        .collect();
     let attrs = &mesh.attributes;
-    let mut channel_at = Vec::new();
-    for set in &attrs.texcoords {
-        channel_at.push(bin.len());
-        set.iter()
-            .flatten()
-            .for_each(|x| bin.extend_from_slice(&x.to_le_bytes()));
-    }
-    let color_at = bin.len();
+    let uv_spans: Vec<(usize, usize)> = attrs
+        .texcoords
+        .iter()
+        .map(|set| push(&mut bin, &mut set.iter().flatten().copied()))
+        .collect();
+    // The colour is vec3, or vec4 with alpha.
     let color_width = if attrs.color_alpha { 4 } else { 3 };
-    for c in &attrs.colors {
-        c[..color_width]
-            .iter()
-            .for_each(|x| bin.extend_from_slice(&x.to_le_bytes()));
-    }
-    let tangent_at = bin.len();
-    for t in tangents.unwrap_or_default() {
-        t.iter()
-            .for_each(|x| bin.extend_from_slice(&x.to_le_bytes()));
-    }
+    let color_span = (!attrs.colors.is_empty()).then(|| {
+        push(
+            &mut bin,
+            &mut attrs.colors.iter().flat_map(|c| c[..color_width].to_vec()),
+        )
+    });
+    let tangent_span = tangents.map(|t| push(&mut bin, &mut t.iter().flatten().copied()));
     // Images go into the binary chunk of a GLB, 4-byte aligned.
     let look = mesh.appearance.as_deref().filter(|a| !a.is_empty());
     let mut image_spans = Vec::new();
@@ -204,118 +200,22 @@ pub(in crate::io) fn write(
         extras: Default::default(),
     });
     use json::buffer::Target;
-    let pos_view = buffer_view(&mut root, 0, normals_at, Target::ArrayBuffer);
-    let pos_acc = accessor(
-        &mut root,
-        pos_view,
-        0,
-        nv,
-        ComponentType::F32,
-        Type::Vec3,
-        Some(serde_json::json!(lo)),
-        Some(serde_json::json!(hi)),
-    );
-    let mut attributes = BTreeMap::new();
-    attributes.insert(Checked::Valid(Semantic::Positions), pos_acc);
-    if normals {
-        let view = buffer_view(
-            &mut root,
-            normals_at,
-            indices_at - normals_at,
-            Target::ArrayBuffer,
-        );
-        let acc = accessor(
-            &mut root,
-            view,
-            0,
-            nv,
-            ComponentType::F32,
-            Type::Vec3,
-            None,
-            None,
-        );
-        attributes.insert(Checked::Valid(Semantic::Normals), acc);
-    }
-    let index_view = buffer_view(
-        &mut root,
-        indices_at,
-        extra_at - indices_at,
-        Target::ElementArrayBuffer,
-    );
-    // Custom attributes: gltf-json only names them with its `extras`
-    // feature, so they are added to the primitives' JSON below.
-    let mut extra_accessors = Vec::with_capacity(extra.len());
-    let mut at = extra_at;
-    for a in extra {
-        let len = a.values.len() * 4;
-        let view = buffer_view(&mut root, at, len, Target::ArrayBuffer);
-        let acc = accessor(
-            &mut root,
-            view,
-            0,
-            a.values.len(),
-            ComponentType::F32,
-            Type::Scalar,
-            None,
-            None,
-        );
-        extra_accessors.push((a.name.clone(), acc.value()));
-        at += len;
-    }
-
-    let channel_end = channel_at
+    let view = |root: &mut json::Root, (at, len): (usize, usize), target| {
+        buffer_view(root, at, len, target)
+    };
+    let pos_view = view(&mut root, pos_span, Target::ArrayBuffer);
+    let normal_view = normal_span.map(|s| view(&mut root, s, Target::ArrayBuffer));
+    let index_view = view(&mut root, index_span, Target::ElementArrayBuffer);
+    let extra_views: Vec<_> = extra_spans
         .iter()
-        .skip(1)
-        .copied()
-        .chain([color_at])
-        .collect::<Vec<_>>();
-    for (k, (&at, &end)) in channel_at.iter().zip(&channel_end).enumerate() {
-        let view = buffer_view(&mut root, at, end - at, Target::ArrayBuffer);
-        let acc = accessor(
-            &mut root,
-            view,
-            0,
-            nv,
-            ComponentType::F32,
-            Type::Vec2,
-            None,
-            None,
-        );
-        attributes.insert(Checked::Valid(Semantic::TexCoords(k as u32)), acc);
-    }
-    if !attrs.colors.is_empty() {
-        let len = attrs.colors.len() * color_width * 4;
-        let view = buffer_view(&mut root, color_at, len, Target::ArrayBuffer);
-        let acc = accessor(
-            &mut root,
-            view,
-            0,
-            nv,
-            ComponentType::F32,
-            if attrs.color_alpha {
-                Type::Vec4
-            } else {
-                Type::Vec3
-            },
-            None,
-            None,
-        );
-        attributes.insert(Checked::Valid(Semantic::Colors(0)), acc);
-    }
-    if let Some(t) = tangents {
-        let view = buffer_view(&mut root, tangent_at, t.len() * 16, Target::ArrayBuffer);
-        let acc = accessor(
-            &mut root,
-            view,
-            0,
-            nv,
-            ComponentType::F32,
-            Type::Vec4,
-            None,
-            None,
-        );
-        attributes.insert(Checked::Valid(Semantic::Tangents), acc);
-    }
+        .map(|&s| view(&mut root, s, Target::ArrayBuffer))
+        .collect();
+    let uv_views: Vec<_> = uv_spans
+        .iter()
+        .map(|&s| view(&mut root, s, Target::ArrayBuffer))
+        .collect();
+    let color_view = color_span.map(|s| view(&mut root, s, Target::ArrayBuffer));
+    let tangent_view = tangent_span.map(|s| view(&mut root, s, Target::ArrayBuffer));
     let image_views: Vec<usize> = image_spans
         .iter()
         .map(|&(at, len)| {
@@ -332,26 +232,79 @@ pub(in crate::io) fn write(
             .value()
         })
         .collect();
+
     // (material index, verbatim JSON) of the materials written as read.
     let mut verbatim = Vec::new();
     let mut primitives = Vec::new();
-    let mut offset = 0;
+    // Per primitive, its custom attributes: gltf-json only names them with
+    // its `extras` feature, so they are added to the JSON below.
+    let mut extra_accessors: Vec<Vec<(String, usize)>> = Vec::new();
+    let mut index_offset = 0;
     let mut uses_strength = false;
-    for (l, list) in per_label.iter().enumerate() {
-        if list.is_empty() {
+    for (l, (vr, fr)) in grouped.ranges.iter().enumerate() {
+        if fr.is_empty() {
             continue;
         }
+        let (v0, n) = (vr.start, vr.len());
+        let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+        for p in &positions[vr.clone()] {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let acc = |root: &mut json::Root, v, width: usize, ty, bounds: Option<(_, _)>| {
+            let (min, max) = bounds.unzip();
+            accessor(root, v, v0 * width * 4, n, ComponentType::F32, ty, min, max)
+        };
+        let mut attributes = BTreeMap::new();
+        let bounds = Some((serde_json::json!(lo), serde_json::json!(hi)));
+        let p = acc(&mut root, pos_view, 3, Type::Vec3, bounds);
+        attributes.insert(Checked::Valid(Semantic::Positions), p);
+        if let Some(v) = normal_view {
+            let a = acc(&mut root, v, 3, Type::Vec3, None);
+            attributes.insert(Checked::Valid(Semantic::Normals), a);
+        }
+        for (k, &v) in uv_views.iter().enumerate() {
+            let a = acc(&mut root, v, 2, Type::Vec2, None);
+            attributes.insert(Checked::Valid(Semantic::TexCoords(k as u32)), a);
+        }
+        if let Some(v) = color_view {
+            let ty = if attrs.color_alpha {
+                Type::Vec4
+            } else {
+                Type::Vec3
+            };
+            let a = acc(&mut root, v, color_width, ty, None);
+            attributes.insert(Checked::Valid(Semantic::Colors(0)), a);
+        }
+        if let Some(v) = tangent_view {
+            let a = acc(&mut root, v, 4, Type::Vec4, None);
+            attributes.insert(Checked::Valid(Semantic::Tangents), a);
+        }
+        let custom = extra
+            .iter()
+            .zip(&extra_views)
+            .map(|(x, &v)| {
+                (
+                    x.name.clone(),
+                    acc(&mut root, v, 1, Type::Scalar, None).value(),
+                )
+            })
+            .collect();
+        extra_accessors.push(custom);
+        let corners = fr.len() * 3;
         let indices = accessor(
             &mut root,
             index_view,
-            offset,
-            list.len(),
+            index_offset,
+            corners,
             ComponentType::U32,
             Type::Scalar,
             None,
             None,
         );
-        offset += list.len() * 4;
+        index_offset += corners * 4;
         let material = match mesh.labels.get(l).and_then(|lab| lab.material.as_ref()) {
             Some(m) => {
                 let (jm, strength) = to_json_material(m);
@@ -365,7 +318,7 @@ pub(in crate::io) fn write(
             None => None,
         };
         primitives.push(json::mesh::Primitive {
-            attributes: attributes.clone(),
+            attributes,
             extensions: None,
             extras: Default::default(),
             indices: Some(indices),
@@ -399,13 +352,13 @@ pub(in crate::io) fn write(
 
     let ser =
         |e: serde_json::Error| IoError::parse(format, format!("serializing the JSON failed: {e}"));
-    let json_text = if extra_accessors.is_empty() && verbatim.is_empty() && look.is_none() {
+    let json_text = if extra.is_empty() && verbatim.is_empty() && look.is_none() {
         serde_json::to_vec(&root).map_err(ser)?
     } else {
         let mut doc = serde_json::to_value(&root).map_err(ser)?;
         if let Some(prims) = doc["meshes"][0]["primitives"].as_array_mut() {
-            for p in prims {
-                for (name, acc) in &extra_accessors {
+            for (p, custom) in prims.iter_mut().zip(&extra_accessors) {
+                for (name, acc) in custom {
                     p["attributes"][name] = serde_json::json!(acc);
                 }
             }

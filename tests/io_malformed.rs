@@ -461,6 +461,19 @@ fn indices_out_of_range() {
         }
         r => panic!("OBJ: {:?}", r.err()),
     }
+    // A malformed statement is named by its line, with an excerpt.
+    for (text, line) in [
+        ("v 0 0 0\nv np.float64(1.0) 0 0\nv 0 1 0\nf 1 2 3\n", 2),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0\nf 1 2 3\n", 4),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 x\nf 1/1 2/1 3/1\n", 4),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\n\nf 1 2 three\n", 5),
+    ] {
+        let e = read(text.as_bytes(), Format::Obj).unwrap_err();
+        assert!(
+            e.to_string().contains(&format!("line {line}:")),
+            "{text:?}: {e}"
+        );
+    }
     for (text, index) in [("f 0 1 2", 0), ("f -4 1 2", -4)] {
         let obj = format!("v 0 0 0\nv 1 0 0\nv 0 1 0\n{text}\n");
         match read(obj.as_bytes(), Format::Obj) {

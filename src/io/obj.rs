@@ -83,6 +83,13 @@ pub(super) fn read(bytes: &[u8], opts: &ReadOptions) -> Result<Imported, IoError
                 "some vertices have a colour (v x y z r g b) and others do not",
             ))
         }
+        Err(
+            e @ (tobj::LoadError::PositionParseError
+            | tobj::LoadError::ColorParseError
+            | tobj::LoadError::NormalParseError
+            | tobj::LoadError::TexcoordParseError
+            | tobj::LoadError::FaceParseError),
+        ) => return Err(locate_bad_line(bytes, &e.to_string())),
         Err(e) => return Err(IoError::parse(Format::Obj, e.to_string())),
     };
 
@@ -323,6 +330,48 @@ fn usemtl_names(bytes: &[u8]) -> Vec<String> {
         }
     }
     names
+}
+
+/// tobj reports a malformed `v`, `vt`, `vn` or `f` statement without
+/// saying where: find the first one that breaks the rules tobj reads by
+/// (`v`: 3, 4 or 6 numbers; `vn`: 3; `vt`: 1 to 3; `f`: at least one
+/// corner, each `v`, `v/t`, `v//n` or `v/t/n` with integer indices) and
+/// name its line, with an excerpt of it.
+fn locate_bad_line(bytes: &[u8], what: &str) -> IoError {
+    let numbers = |words: &[&str]| words.iter().all(|w| w.parse::<f64>().is_ok());
+    let corner = |w: &str| {
+        let parts: Vec<&str> = w.split('/').collect();
+        parts.len() <= 3
+            && parts[0].parse::<i64>().is_ok()
+            && parts[1..]
+                .iter()
+                .all(|p| p.is_empty() || p.parse::<i64>().is_ok())
+    };
+    for (number, line) in bytes.split(|&c| c == b'\n').enumerate() {
+        let text = String::from_utf8_lossy(line);
+        let words: Vec<&str> = text.split_whitespace().collect();
+        let Some((&kw, rest)) = words.split_first() else {
+            continue;
+        };
+        let ok = match kw {
+            "v" => matches!(rest.len(), 3 | 4 | 6) && numbers(rest),
+            "vn" => rest.len() == 3 && numbers(rest),
+            "vt" => (1..=3).contains(&rest.len()) && numbers(rest),
+            "f" => !rest.is_empty() && rest.iter().all(|w| corner(w)),
+            _ => true,
+        };
+        if !ok {
+            let mut excerpt: String = text.trim().chars().take(60).collect();
+            if text.trim().chars().count() > 60 {
+                excerpt.push('…');
+            }
+            return IoError::parse(
+                Format::Obj,
+                format!("line {}: {what}: {excerpt:?}", number + 1),
+            );
+        }
+    }
+    IoError::parse(Format::Obj, what)
 }
 
 /// tobj reports an out-of-range face index without saying where; find the

@@ -199,6 +199,38 @@ impl TriMesh {
             .sum()
     }
 
+    /// A mesh over copies of this mesh's vertices: vertex `i` of the result
+    /// copies vertex `origin[i]` (position, normal, texture coordinates,
+    /// colour), `triangles` index the result and `face_labels` label them
+    /// (pass them empty when this mesh has none). Labels and appearance are
+    /// shared. The writers use it to split vertices per corner, per
+    /// tangent or per primitive.
+    pub(crate) fn with_vertices(
+        &self,
+        origin: &[u32],
+        triangles: Vec<[u32; 3]>,
+        face_labels: Vec<u32>,
+    ) -> TriMesh {
+        let pick = |v: &[DVec3]| -> Vec<DVec3> {
+            if v.is_empty() {
+                Vec::new()
+            } else {
+                origin.iter().map(|&o| v[o as usize]).collect()
+            }
+        };
+        let mut attributes = self.attributes.select(origin);
+        attributes.dropped = self.attributes.dropped.clone();
+        TriMesh {
+            positions: pick(&self.positions),
+            triangles,
+            normals: pick(&self.normals),
+            face_labels,
+            labels: self.labels.clone(),
+            attributes,
+            appearance: self.appearance.clone(),
+        }
+    }
+
     /// The mesh as the benchmark's `meshload.py` canonicalises it, which is
     /// the mesh the statistics describe: bit-identical positions merged,
     /// faces with an out-of-range or repeated vertex and repeats of an

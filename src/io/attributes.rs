@@ -80,24 +80,10 @@ impl Attributes {
 /// `_NAME`.
 pub(super) fn per_corner(mesh: &TriMesh, attrs: &Attributes) -> (TriMesh, Vec<Attribute>) {
     let corners: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
-    let out = TriMesh {
-        positions: corners
-            .iter()
-            .map(|&v| mesh.positions[v as usize])
-            .collect(),
-        triangles: (0..mesh.triangles.len() as u32)
-            .map(|f| [3 * f, 3 * f + 1, 3 * f + 2])
-            .collect(),
-        normals: if mesh.normals.is_empty() {
-            Vec::new()
-        } else {
-            corners.iter().map(|&v| mesh.normals[v as usize]).collect()
-        },
-        face_labels: mesh.face_labels.clone(),
-        labels: mesh.labels.clone(),
-        attributes: mesh.attributes.select(&corners),
-        appearance: mesh.appearance.clone(),
-    };
+    let triangles = (0..mesh.triangles.len() as u32)
+        .map(|f| [3 * f, 3 * f + 1, 3 * f + 2])
+        .collect();
+    let out = mesh.with_vertices(&corners, triangles, mesh.face_labels.clone());
     let gltf_name = |n: &str| format!("_{}", n.to_ascii_uppercase());
     let mut extra: Vec<Attribute> = attrs
         .vertex

@@ -101,20 +101,33 @@ fn gltf_names(bytes: &[u8]) -> Vec<Companion> {
     out
 }
 
-/// A companion by the name the model gives it: as written, percent-decoded,
-/// with `\` read as `/`, without a leading `./`, or by its last path
-/// component (the name a browser gives an uploaded file).
+/// The keys under which a companion named `name` by its model may have
+/// been handed in: as written, percent-decoded, with `\` read as `/`,
+/// without a leading `./`, or by its last path component (the name a
+/// browser gives an uploaded file), in that order of preference.
+fn keys(name: &str) -> Vec<String> {
+    let decoded = percent_decode(name).unwrap_or_else(|| name.to_string());
+    let slashed = decoded.replace('\\', "/");
+    let base = slashed.rsplit('/').next().unwrap_or(&slashed).to_string();
+    let trimmed = slashed.trim_start_matches("./").to_string();
+    vec![
+        name.to_string(),
+        decoded.clone(),
+        slashed.clone(),
+        trimmed,
+        base,
+    ]
+}
+
+/// A companion by the name the model gives it (see [`keys`]).
 pub(crate) fn find<'a>(parts: &'a HashMap<String, Vec<u8>>, name: &str) -> Option<&'a Vec<u8>> {
-    parts.get(name).or_else(|| {
-        let decoded = percent_decode(name).unwrap_or_else(|| name.to_string());
-        let slashed = decoded.replace('\\', "/");
-        let base = slashed.rsplit('/').next().unwrap_or(&slashed);
-        parts
-            .get(&decoded)
-            .or_else(|| parts.get(&slashed))
-            .or_else(|| parts.get(slashed.trim_start_matches("./")))
-            .or_else(|| parts.get(base))
-    })
+    keys(name).iter().find_map(|k| parts.get(k))
+}
+
+/// Whether a file handed in as `part` is the companion the model names
+/// `name`.
+pub(crate) fn is_named(part: &str, name: &str) -> bool {
+    keys(name).iter().any(|k| k == part)
 }
 
 /// [`find`], or the error that names the missing file.

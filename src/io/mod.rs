@@ -139,17 +139,17 @@ pub fn write_with_attributes(
     match format {
         Format::Obj => Ok(obj::write(mesh, normals, None)),
         Format::Gltf | Format::Glb => {
-            let (split, mut extra) = if attrs.is_empty() {
+            let (split, extra) = if attrs.is_empty() {
                 (std::borrow::Cow::Borrowed(mesh), Vec::new())
             } else {
                 let (m, e) = attributes::per_corner(mesh, attrs);
                 (std::borrow::Cow::Owned(m), e)
             };
             if normals && tangents::wanted(&split) {
-                let (m, t, origin) = tangents::with_tangents(&split);
-                for a in &mut extra {
-                    a.values = origin.iter().map(|&o| a.values[o as usize]).collect();
-                }
+                // A per-corner mesh has one corner per vertex, so tangents
+                // never split it and `extra` keeps its vertex order.
+                let (m, t) = tangents::with_tangents(&split);
+                debug_assert!(extra.is_empty() || m.positions.len() == split.positions.len());
                 gltf::write(&m, format, normals, &extra, Some(&t))
             } else {
                 gltf::write(&split, format, normals, &extra, None)

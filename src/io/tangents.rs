@@ -71,10 +71,9 @@ impl Geometry for Corners<'_> {
 }
 
 /// `mesh` with one MikkTSpace tangent per vertex, splitting vertices whose
-/// corners disagree: the new mesh, its tangents (xyz unit, w = ±1, the
-/// bitangent's sign), and for each new vertex the vertex of `mesh` it
-/// copies.
-pub(crate) fn with_tangents(mesh: &TriMesh) -> (TriMesh, Vec<[f32; 4]>, Vec<u32>) {
+/// corners disagree: the new mesh (copies appended after the original
+/// vertices) and its tangents (xyz unit, w = ±1, the bitangent's sign).
+pub(crate) fn with_tangents(mesh: &TriMesh) -> (TriMesh, Vec<[f32; 4]>) {
     let mut corners = Corners {
         mesh,
         tangents: vec![[0.0; 4]; 3 * mesh.triangles.len()],
@@ -119,17 +118,9 @@ pub(crate) fn with_tangents(mesh: &TriMesh) -> (TriMesh, Vec<[f32; 4]>, Vec<u32>
     let out = if copies.is_empty() {
         mesh.clone()
     } else {
-        TriMesh {
-            positions: origin.iter().map(|&o| mesh.positions[o as usize]).collect(),
-            triangles,
-            normals: origin.iter().map(|&o| mesh.normals[o as usize]).collect(),
-            face_labels: mesh.face_labels.clone(),
-            labels: mesh.labels.clone(),
-            attributes: mesh.attributes.select(&origin),
-            appearance: mesh.appearance.clone(),
-        }
+        mesh.with_vertices(&origin, triangles, mesh.face_labels.clone())
     };
-    (out, tangents, origin)
+    (out, tangents)
 }
 
 #[cfg(test)]
@@ -146,9 +137,8 @@ mod tests {
         );
         m.normals = vec![DVec3::Z; 4];
         m.attributes.texcoords = vec![vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]]];
-        let (out, t, origin) = with_tangents(&m);
+        let (out, t) = with_tangents(&m);
         assert_eq!(out.positions.len(), 4);
-        assert_eq!(origin, [0, 1, 2, 3]);
         for x in &t {
             assert!((x[0] - 1.0).abs() < 1e-5 && x[1].abs() < 1e-5, "{x:?}");
             assert_eq!(x[3], t[0][3]);

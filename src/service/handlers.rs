@@ -361,13 +361,14 @@ fn unreferenced_part(
     let named = crate::io::companions::companion_names(mesh, format, parts);
     let mut names: Vec<&String> = parts.keys().collect();
     names.sort();
-    names.into_iter().find_map(|part| {
-        let alone = HashMap::from([(part.clone(), Vec::new())]);
-        let used = named
-            .iter()
-            .any(|c| crate::io::companions::find(&alone, &c.name).is_some());
-        (!used).then(|| part.clone())
-    })
+    names
+        .into_iter()
+        .find(|part| {
+            !named
+                .iter()
+                .any(|c| crate::io::companions::is_named(part, &c.name))
+        })
+        .cloned()
 }
 
 /// `GET /v1/jobs/{id}/result[?format=...][&bundle=zip]`: the result file;

@@ -57,27 +57,15 @@ pub(super) fn by_label(
     }
     let pick = |values: &[f32]| origin.iter().map(|&o| values[o as usize]).collect();
     ByLabel {
-        mesh: TriMesh {
-            positions: origin.iter().map(|&o| mesh.positions[o as usize]).collect(),
+        mesh: mesh.with_vertices(
+            &origin,
             triangles,
-            normals: if mesh.normals.is_empty() {
-                Vec::new()
-            } else {
-                origin.iter().map(|&o| mesh.normals[o as usize]).collect()
-            },
-            face_labels: if mesh.face_labels.is_empty() {
+            if mesh.face_labels.is_empty() {
                 Vec::new()
             } else {
                 face_labels
             },
-            labels: mesh.labels.clone(),
-            attributes: {
-                let mut a = mesh.attributes.select(&origin);
-                a.dropped = mesh.attributes.dropped.clone();
-                a
-            },
-            appearance: mesh.appearance.clone(),
-        },
+        ),
         extra: extra
             .iter()
             .map(|a| Attribute {

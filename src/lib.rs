@@ -16,6 +16,7 @@
 //! | [`curvature`] | per-vertex principal curvatures (Rusinkiewicz 2004), feature-aware, and feature-polyline curvature |
 //! | [`remesh`] | the Botsch–Kobbelt remesher: options, driver, one pass per file, progress and cancellation |
 //! | [`appearance`] | per-vertex texture coordinates and colours, and the textures and images a mesh's materials use |
+//! | [`scene`] | the parts a mesh came from (glTF meshes, OBJ groups), their transforms, and the glTF node hierarchy, for writing a result back in the same structure |
 //! | [`transfer`] | attribute transfer onto the remeshed surface: seams, wedges, chart-bound walks |
 //! | [`reference`] | the per-job [`reference::Reference`]: the input as read, repaired, indexed, welded and feature-detected once for the remesher and the statistics |
 //! | [`params`] | the remesh parameters as callers give them, declared once for the CLI flags, the service and the job record; they convert into [`remesh::RemeshOptions`] |
@@ -38,6 +39,7 @@ pub mod params;
 pub mod pipeline;
 pub mod reference;
 pub mod remesh;
+pub mod scene;
 #[cfg(feature = "service")]
 pub mod service;
 pub mod shapes;

@@ -174,6 +174,7 @@ pub fn remesh_only(
         written = split_by_values(&written, &values, attrs.layout(), has_color);
     }
     written.appearance = input.source.appearance.clone();
+    written.scene = input.source.scene.clone();
     Ok(Remeshed {
         written,
         surface,

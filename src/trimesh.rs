@@ -14,6 +14,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::appearance::{Appearance, VertexAttributes};
+use crate::scene::Scene;
 
 /// The weld key of a position: its coordinates' bit patterns with −0 folded
 /// into +0, so that exactly equal positions, and only those, share a key.
@@ -119,6 +120,10 @@ pub struct Label {
     pub name: Option<String>,
     /// The material the faces with this label use, if any.
     pub material: Option<Material>,
+    /// The part of the mesh's [`crate::scene::Scene`] the faces belong to
+    /// (a glTF mesh, an OBJ object or group), when the input had parts.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub part: Option<u32>,
 }
 
 /// An indexed triangle mesh with optional per-vertex normals and per-face labels.
@@ -144,6 +149,9 @@ pub struct TriMesh {
     /// The textures and images that the labels' materials use, shared
     /// between the copies of a mesh that a job makes.
     pub appearance: Option<Arc<Appearance>>,
+    /// The parts and node hierarchy the mesh came from, shared like the
+    /// appearance; `None` for a mesh of one anonymous part.
+    pub scene: Option<Arc<Scene>>,
 }
 
 impl TriMesh {
@@ -228,6 +236,7 @@ impl TriMesh {
             labels: self.labels.clone(),
             attributes,
             appearance: self.appearance.clone(),
+            scene: self.scene.clone(),
         }
     }
 

@@ -103,6 +103,7 @@ fn two_material_grid() -> TriMesh {
                 double_sided: false,
                 gltf: None,
             }),
+            part: None,
         })
         .collect();
     m

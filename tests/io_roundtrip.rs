@@ -162,6 +162,7 @@ fn labelled_mesh() -> TriMesh {
                 double_sided: false,
                 gltf: None,
             }),
+            part: None,
         },
         Label {
             name: Some("body".into()),
@@ -174,10 +175,12 @@ fn labelled_mesh() -> TriMesh {
                 double_sided: true,
                 gltf: None,
             }),
+            part: None,
         },
         Label {
             name: None,
             material: None,
+            part: None,
         },
     ];
     io::with_split_normals(&m, 40.0, &[])
@@ -342,17 +345,36 @@ fn obj_materials_become_labels_and_survive_a_round_trip() {
     );
     // A file using materials without any mtllib, groups without materials.
     let text = "g one\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\ng two\nf 2 4 3\n";
+    // Groups are parts: each face is labelled with its group.
     let plain = io::read(text.as_bytes(), Format::Obj, &ReadOptions::default()).unwrap();
-    assert!(plain.mesh.labels.is_empty() && plain.mesh.face_labels.is_empty());
+    let parts: Vec<_> = plain.mesh.labels.iter().map(|l| l.part).collect();
+    assert_eq!(parts, [Some(0), Some(1)]);
+    assert_eq!(plain.mesh.face_labels, [0, 1]);
+    let scene = plain.mesh.scene.as_deref().unwrap();
+    let part_names: Vec<_> = scene.parts.iter().map(|p| p.name.as_deref()).collect();
+    assert_eq!(part_names, [Some("one"), Some("two")]);
     let with = format!(
         "mtllib missing.mtl\nusemtl red\n{text}usemtl blue\nf 1 2 4\nusemtl red\nf 1 4 3\n"
     );
     let r = io::read(with.as_bytes(), Format::Obj, &ReadOptions::default()).unwrap();
-    let names: Vec<_> = r.mesh.labels.iter().map(|l| l.name.as_deref()).collect();
-    assert_eq!(names, [Some("red"), Some("blue")]);
+    // One label per group and material.
+    let labels: Vec<_> = r
+        .mesh
+        .labels
+        .iter()
+        .map(|l| (l.name.as_deref(), l.part))
+        .collect();
+    assert_eq!(
+        labels,
+        [
+            (Some("red"), Some(0)),
+            (Some("red"), Some(1)),
+            (Some("blue"), Some(1))
+        ]
+    );
     let mut labels = r.mesh.face_labels.clone();
     labels.sort();
-    assert_eq!(labels, [0, 0, 0, 1]);
+    assert_eq!(labels, [0, 1, 1, 2]);
 }
 
 #[test]
@@ -623,8 +645,9 @@ fn gltf_without_scenes_reads_root_nodes_or_all_meshes() {
         &ReadOptions::default(),
     )
     .unwrap();
-    // Node 1 is the only root; node 0 is its child: two instances.
-    assert_eq!(r.mesh.face_count(), 2);
+    // Node 1 is the only root; node 0 is its child. The mesh both use is
+    // read once, under node 0, the first in document order.
+    assert_eq!(r.mesh.face_count(), 1);
     assert_eq!(r.mesh.bounds().unwrap().1.z, 5.0);
 }
 

@@ -152,6 +152,7 @@ pub fn with_split_normals(
             a
         },
         appearance: mesh.appearance.clone(),
+        scene: mesh.scene.clone(),
     }
 }
 

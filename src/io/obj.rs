@@ -25,6 +25,7 @@ use super::mtl::LookBuilder;
 use super::text::{push_lines, push_u64, push_vec3_line};
 use super::{Format, Imported, IoError, ReadOptions};
 use crate::appearance::{linear_to_srgb, srgb_to_linear, DroppedAttribute};
+use crate::scene::Part;
 use crate::{Label, Material, TriMesh};
 
 /// A name tobj is handed as the material library when the file uses
@@ -94,12 +95,29 @@ pub(super) fn read(bytes: &[u8], opts: &ReadOptions) -> Result<Imported, IoError
     };
 
     let mut mesh = TriMesh::default();
-    let mut label_of: HashMap<Option<usize>, u32> = HashMap::new();
+    // Parts: the distinct `o`/`g` names, in first-use order.
+    let mut part_names: Vec<Option<String>> = Vec::new();
+    let part_of: Vec<usize> = models
+        .iter()
+        .map(|model| {
+            let name = (model.name != "unnamed_object").then(|| model.name.clone());
+            match part_names.iter().position(|n| *n == name) {
+                Some(p) => p,
+                None => {
+                    part_names.push(name);
+                    part_names.len() - 1
+                }
+            }
+        })
+        .collect();
+    let parted = part_names.len() > 1;
+    let mut label_of: HashMap<(usize, Option<usize>), u32> = HashMap::new();
     let mut corners = CornerData::new(&models);
     // Faces counted from 0 in file order, for error messages.
     let mut polygons = 0u64;
-    for model in &models {
+    for (model, &part) in models.iter().zip(&part_of) {
         let m = &model.mesh;
+        let part = if parted { part } else { 0 };
         let base = super::vertex_index(mesh.positions.len())?;
         let count = m.positions.len() / 3;
         super::vertex_index(mesh.positions.len() + count)?;
@@ -132,9 +150,9 @@ pub(super) fn read(bytes: &[u8], opts: &ReadOptions) -> Result<Imported, IoError
                 start = end;
             }
         }
-        if uses_materials {
+        if uses_materials || parted {
             let next = label_of.len() as u32;
-            let label = *label_of.entry(m.material_id).or_insert(next);
+            let label = *label_of.entry((part, m.material_id)).or_insert(next);
             if label == next {
                 let name = m.material_id.and_then(|i| names.get(i)).cloned();
                 let material = match &name {
@@ -150,6 +168,7 @@ pub(super) fn read(bytes: &[u8], opts: &ReadOptions) -> Result<Imported, IoError
                 mesh.labels.push(Label {
                     name: name.clone(),
                     material,
+                    part: parted.then_some(part as u32),
                 });
             }
             mesh.face_labels.resize(
@@ -159,6 +178,12 @@ pub(super) fn read(bytes: &[u8], opts: &ReadOptions) -> Result<Imported, IoError
         }
     }
     corners.finish(&mut mesh);
+    if parted || part_names.iter().any(Option::is_some) {
+        mesh.scene = Some(std::sync::Arc::new(crate::scene::Scene {
+            parts: part_names.into_iter().map(Part::named).collect(),
+            gltf: None,
+        }));
+    }
     mesh.attributes.dropped.append(&mut look.dropped);
     mesh.appearance = look.finish().map(std::sync::Arc::new);
     Ok(Imported {
@@ -465,22 +490,54 @@ pub(super) fn write(mesh: &TriMesh, normals: bool, mtllib: Option<&str>) -> Vec<
     }
     let layout = (uv.is_some(), normals);
     let names = label_names(mesh);
-    if names.is_empty() {
+    let objects = object_names(mesh);
+    if names.is_empty() && objects.is_empty() {
         push_lines(&mut out, &mesh.triangles, 40, |o, _, t| {
             push_face_line(o, t, layout)
         });
     } else {
-        let mut current = None;
+        let (mut label, mut object) = (None, None);
         for (f, t) in mesh.triangles.iter().enumerate() {
             let l = mesh.face_label(f) as usize;
-            if current != Some(l) {
-                current = Some(l);
+            if let Some(name) = objects.get(l).filter(|_| object != Some(&objects[l])) {
+                object = Some(name);
+                let _ = writeln!(out, "o {name}");
+                // A new object starts without a material in some readers.
+                label = None;
+            }
+            if label != Some(l) && !names.is_empty() {
+                label = Some(l);
                 let _ = writeln!(out, "usemtl {}", names[l]);
             }
             push_face_line(&mut out, t, layout);
         }
     }
     out
+}
+
+/// Per label, the single-line `o` name of its part (`part_<i>` for an
+/// unnamed one); empty when the mesh has no named or several parts.
+fn object_names(mesh: &TriMesh) -> Vec<String> {
+    let Some(scene) = mesh.scene.as_deref().filter(|s| s.is_structured()) else {
+        return Vec::new();
+    };
+    let only = (scene.parts.len() == 1).then_some(0);
+    (0..mesh.label_count())
+        .map(|l| {
+            let p = mesh
+                .labels
+                .get(l)
+                .and_then(|lab| lab.part)
+                .map(|p| p as usize)
+                .or(only)
+                .unwrap_or(0);
+            let name = scene.parts.get(p).and_then(|part| part.name.as_deref());
+            let clean = name
+                .map(|n| n.split_whitespace().collect::<Vec<_>>().join(" "))
+                .filter(|n| !n.is_empty());
+            clean.unwrap_or_else(|| format!("part_{p}"))
+        })
+        .collect()
 }
 
 /// The files of a textured or materialled OBJ result: `stem.obj` naming

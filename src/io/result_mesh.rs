@@ -10,11 +10,14 @@ use std::io;
 use glam::DVec3;
 
 use crate::appearance::Appearance;
+use crate::scene::Scene;
 use crate::trimesh::{Label, TriMesh};
 
 /// Magic and version of `result.mesh`.
-const MESH_MAGIC: &[u8; 8] = b"IRMESH02";
-/// The previous version, without attributes and appearance: still read.
+const MESH_MAGIC: &[u8; 8] = b"IRMESH03";
+/// The version without the scene: still read.
+const MESH_MAGIC_V2: &[u8; 8] = b"IRMESH02";
+/// The version without attributes, appearance and scene: still read.
 const MESH_MAGIC_V1: &[u8; 8] = b"IRMESH01";
 
 fn put_u64(out: &mut Vec<u8>, v: u64) {
@@ -24,8 +27,10 @@ fn put_u64(out: &mut Vec<u8>, v: u64) {
 /// Serialises a mesh exactly: magic, five u64 counts (positions, triangles,
 /// normals, face labels, label-JSON bytes), then the arrays little-endian;
 /// then the texture coordinate sets (a count, then per set its pairs), the
-/// colours (a count, the alpha flag, RGBA quadruples), and the appearance
-/// (JSON bytes without the images, then per image its length and bytes).
+/// colours (a count, the alpha flag, RGBA quadruples), the appearance
+/// (JSON bytes without the images, then per image its length and bytes),
+/// and the scene (JSON bytes). An absent appearance or scene is the length
+/// `u64::MAX`.
 pub fn encode(m: &TriMesh) -> io::Result<Vec<u8>> {
     let labels = serde_json::to_vec(&m.labels).map_err(io::Error::other)?;
     let mut out =
@@ -81,6 +86,14 @@ pub fn encode(m: &TriMesh) -> io::Result<Vec<u8>> {
             }
         }
     }
+    match &m.scene {
+        None => put_u64(&mut out, u64::MAX),
+        Some(scene) => {
+            let meta = serde_json::to_vec(&**scene).map_err(io::Error::other)?;
+            put_u64(&mut out, meta.len() as u64);
+            out.extend_from_slice(&meta);
+        }
+    }
     Ok(out)
 }
 
@@ -132,7 +145,8 @@ impl Reader<'_> {
 pub fn decode(bytes: &[u8]) -> io::Result<TriMesh> {
     let mut r = Reader(bytes);
     let magic = r.take(8)?;
-    let v2 = magic == MESH_MAGIC;
+    let v3 = magic == MESH_MAGIC;
+    let v2 = v3 || magic == MESH_MAGIC_V2;
     if !v2 && magic != MESH_MAGIC_V1 {
         return Err(io::Error::new(
             io::ErrorKind::InvalidData,
@@ -193,6 +207,14 @@ pub fn decode(bytes: &[u8]) -> io::Result<TriMesh> {
             m.appearance = Some(std::sync::Arc::new(look));
         }
     }
+    if v3 {
+        let len = r.u64()?;
+        if len != u64::MAX {
+            let meta = r.take(usize::try_from(len).map_err(io::Error::other)?)?;
+            let scene: Scene = serde_json::from_slice(meta).map_err(io::Error::other)?;
+            m.scene = Some(std::sync::Arc::new(scene));
+        }
+    }
     m.check()
         .map_err(|e| io::Error::new(io::ErrorKind::InvalidData, e))?;
     Ok(m)
@@ -218,8 +240,16 @@ mod tests {
                     base_color_factor: [1.0, 0.0, 0.0, 1.0],
                     ..Default::default()
                 }),
+                part: Some(1),
             },
         ];
+        m.scene = Some(std::sync::Arc::new(Scene {
+            parts: vec![
+                crate::scene::Part::named(None),
+                crate::scene::Part::named(Some("lid".into())),
+            ],
+            gltf: Some(serde_json::json!({"nodes": [{"name": "lid", "mesh": 1}]})),
+        }));
         m.attributes.texcoords = vec![m
             .positions
             .iter()

@@ -188,7 +188,6 @@ pub(super) fn project_to_input(st: &mut State) -> u64 {
 pub(super) fn project_points(st: &mut State, from: &[DVec3]) -> u64 {
     let m = &st.mesh;
     let kind = &st.kind;
-    let index = &st.index;
     let features = &st.features;
     let hint_face = &st.hint_face;
     let hint_seg = &st.hint_seg;
@@ -213,8 +212,8 @@ pub(super) fn project_points(st: &mut State, from: &[DVec3]) -> u64 {
                     line => {
                         let lp = features.closest_on_line_near(line, p, hs);
                         // The surface face under the line point, for sizing and the orientation check.
-                        let face = index
-                            .closest_point_with_hint(lp.point, hf)
+                        let face = st_ref
+                            .closest_on_part(lp.point, hf)
                             .map(|cp| (cp.face, cp.barycentric));
                         (lp.point, face.map_or(hf, |f| f.0), lp.segment, face)
                     }
@@ -253,6 +252,12 @@ pub(super) fn walk_closest(st: &State, p: DVec3, hint: u32, size: f64) -> Option
     if hint as usize >= tris.len() {
         return st.index.closest_point(p);
     }
+    // The walk stays on the hint's part, as the fallback query does.
+    let part = st
+        .face_part
+        .as_deref()
+        .map(|parts| (parts, parts[hint as usize]));
+    let off_part = |g: u32| part.is_some_and(|(parts, p)| parts[g as usize] != p);
     let eval = |f: u32| {
         let [a, b, c] = tris[f as usize];
         let (q, bary) =
@@ -274,7 +279,7 @@ pub(super) fn walk_closest(st: &State, p: DVec3, hint: u32, size: f64) -> Option
         for (k, g) in st.face_neighbors[f as usize].into_iter().enumerate() {
             // Only across the edge the foot point lies on (edge k is
             // opposite barycentric coordinate k + 2 mod 3).
-            if g == u32::MAX || g == prev || best_b[(k + 2) % 3] > 0.0 {
+            if g == u32::MAX || g == prev || best_b[(k + 2) % 3] > 0.0 || off_part(g) {
                 continue;
             }
             let (d, q, b) = eval(g);
@@ -292,7 +297,7 @@ pub(super) fn walk_closest(st: &State, p: DVec3, hint: u32, size: f64) -> Option
                     st.vertex_face_start[v + 1] as usize,
                 );
                 for &g in &st.vertex_faces[s..e] {
-                    if g == f || st.face_neighbors[f as usize].contains(&g) {
+                    if g == f || st.face_neighbors[f as usize].contains(&g) || off_part(g) {
                         continue;
                     }
                     let (d, q, b) = eval(g);
@@ -316,7 +321,7 @@ pub(super) fn walk_closest(st: &State, p: DVec3, hint: u32, size: f64) -> Option
             distance_squared: best_d,
         });
     }
-    st.index.closest_point_with_hint(p, best_f)
+    st.closest_on_part(p, best_f)
 }
 
 /// Moves every vertex toward `targets`, halving moves that break a face (see

@@ -422,7 +422,7 @@ fn improve_line_vertex(st: &mut State, v: VertexId, line: u32) -> bool {
     };
     st.mesh.set_position(v, q);
     st.hint_seg[v.idx()] = seg;
-    if let Some(cp) = st.index.closest_point_with_hint(q, st.hint_face[v.idx()]) {
+    if let Some(cp) = st.closest_on_part(q, st.hint_face[v.idx()]) {
         settle(st, v, &cp);
     }
     true

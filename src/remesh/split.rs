@@ -132,9 +132,7 @@ pub(super) fn split_deviating_edges(st: &mut State) -> Result<u64, RemeshError> 
         }
         let mid = 0.5 * (m.position(a) + m.position(b));
         let tol = DEVIATION_FACTOR * st.edge_target(a, b);
-        let cp = st
-            .index
-            .closest_point_with_hint(mid, st.hint_face[a.idx()])?;
+        let cp = st.closest_on_part(mid, st.hint_face[a.idx()])?;
         (cp.distance_squared > tol * tol).then_some((e.0, [a.0, b.0], cp.point, cp.face))
     });
     let mut count = 0u64;

@@ -65,6 +65,11 @@ pub(super) struct State<'c> {
     /// `ca`, or `u32::MAX` on a boundary (one of them where the edge is
     /// non-manifold).
     pub face_neighbors: Vec<[u32; 3]>,
+    /// Per input face: its part, the faces connected to it across edges
+    /// (across label borders only when features are off), so that a vertex
+    /// is projected only onto the part it came from, never onto another
+    /// part passing through it. `None` when the input is one part.
+    pub face_part: Option<Vec<u32>>,
     /// Feature-line vertices kept fixed where the input's line turns.
     pub fixed_turns: u64,
     /// The worker pool of the parallel passes.
@@ -89,6 +94,7 @@ pub(super) struct PartialState {
     vertex_face_start: Vec<u32>,
     vertex_faces: Vec<u32>,
     face_neighbors: Vec<[u32; 3]>,
+    face_part: Option<Vec<u32>>,
     fixed_turns: u64,
 }
 
@@ -115,6 +121,7 @@ impl<'c> State<'c> {
             vertex_face_start: p.vertex_face_start,
             vertex_faces: p.vertex_faces,
             face_neighbors: p.face_neighbors,
+            face_part: p.face_part,
             fixed_turns: p.fixed_turns,
             pool: std::sync::Arc::new(pool),
             cancel,
@@ -200,7 +207,9 @@ impl<'c> State<'c> {
             .into_par_iter()
             .map(|f| index.face_normal(f))
             .collect();
+        let face_part = face_parts(tm, &face_neighbors, options.preserve_features);
         Ok(PartialState {
+            face_part,
             face_neighbors,
             fixed_turns,
             vertex_face_start,
@@ -521,6 +530,39 @@ fn face_neighbors(tm: &TriMesh, start: &[u32], faces: &[u32]) -> Vec<[u32; 3]> {
             nb
         })
         .collect()
+}
+
+/// The part of every input face (see [`State::face_part`]): faces joined
+/// across their shared edges, across label borders too unless
+/// `split_labels`; `None` when there is one part.
+fn face_parts(tm: &TriMesh, neighbors: &[[u32; 3]], split_labels: bool) -> Option<Vec<u32>> {
+    let mut uf = crate::topology::UnionFind::new(neighbors.len());
+    for (f, nb) in neighbors.iter().enumerate() {
+        for &g in nb {
+            let same = !split_labels || tm.face_label(f) == tm.face_label(g as usize);
+            if g != u32::MAX && same {
+                uf.union(f as u32, g);
+            }
+        }
+    }
+    let roots = uf.into_roots();
+    let first = *roots.first()?;
+    roots.iter().any(|&r| r != first).then_some(roots)
+}
+
+impl State<'_> {
+    /// The closest point of the input to `p` on the part of face `hint`
+    /// (the whole input when it is one part or the hint is not a face).
+    pub fn closest_on_part(&self, p: DVec3, hint: u32) -> Option<crate::bvh::ClosestPoint> {
+        match self.face_part.as_deref() {
+            Some(parts) if (hint as usize) < parts.len() => {
+                let part = parts[hint as usize];
+                self.index
+                    .closest_point_with_hint_filtered(p, hint, |f| parts[f as usize] == part)
+            }
+            _ => self.index.closest_point_with_hint(p, hint),
+        }
+    }
 }
 
 /// The sizing options of adaptive sizing: the tolerance's defaults with the

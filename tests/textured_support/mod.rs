@@ -50,6 +50,7 @@ pub fn textured_soup(
             })),
             ..Default::default()
         }),
+        part: None,
     }];
     soup.appearance = Some(Arc::new(Appearance {
         textures: vec![json!({"source": 0, "sampler": 0})],

@@ -39,6 +39,7 @@ use crate::{Label, Material, TriMesh};
 mod access;
 mod look;
 mod primitives;
+mod scene;
 mod write;
 
 pub use access::percent_decode;
@@ -138,9 +139,15 @@ fn instances(root: &json::Root, format: Format) -> Result<Vec<(usize, DMat4)>, I
             stack.push((c.value(), world));
         }
     }
-    // Each node is visited once, so node indices are unique keys.
+    // Each node is visited once, so node indices are unique keys. A mesh
+    // that several nodes use is read once, under its first node.
     out.sort_unstable_by_key(|&(n, _, _)| n);
-    Ok(out.into_iter().map(|(_, m, w)| (m, w)).collect())
+    let mut seen = vec![false; root.meshes.len()];
+    Ok(out
+        .into_iter()
+        .filter(|&(_, m, _)| !std::mem::replace(&mut seen[m], true))
+        .map(|(_, m, w)| (m, w))
+        .collect())
 }
 
 pub(super) fn read(bytes: &[u8], format: Format, opts: &ReadOptions) -> Result<Imported, IoError> {
@@ -172,6 +179,7 @@ pub(super) fn read(bytes: &[u8], format: Format, opts: &ReadOptions) -> Result<I
         ));
     }
     let look = look::RawLook::parse(json_bytes, format)?;
+    let raw_scene = scene::RawScene::parse(json_bytes, format)?;
     let instances = instances(&root, format)?;
     let max_vertices = opts
         .max_triangles
@@ -200,12 +208,15 @@ pub(super) fn read(bytes: &[u8], format: Format, opts: &ReadOptions) -> Result<I
         });
     }
     let mut ignored = 0u64;
+    let mut dropped_scene = Vec::new();
     let mut all_normals = true;
-    let mut labels: HashMap<Option<usize>, u32> = HashMap::new();
+    let mut labels: HashMap<(usize, Option<usize>), u32> = HashMap::new();
+    let mut parts = Vec::with_capacity(instances.len());
     type VertexKey = (usize, usize, Option<usize>, Vec<usize>, Option<usize>);
     let mut shared: HashMap<VertexKey, (u32, u32)> = HashMap::new();
     let mut scratch: Vec<f64> = Vec::new();
     for (instance, &(m, world)) in instances.iter().enumerate() {
+        parts.push(raw_scene.part(m, world));
         let det = world.determinant();
         let normal_matrix = if det.abs() > 1e-300 {
             DMat3::from_mat4(world).inverse().transpose()
@@ -379,7 +390,7 @@ pub(super) fn read(bytes: &[u8], format: Format, opts: &ReadOptions) -> Result<I
 
             let mat = prim.material.map(|i| i.value());
             let next = mesh.labels.len() as u32;
-            let label = *labels.entry(mat).or_insert(next);
+            let label = *labels.entry((instance, mat)).or_insert(next);
             if label == next {
                 let material = match mat {
                     Some(i) => {
@@ -394,6 +405,7 @@ pub(super) fn read(bytes: &[u8], format: Format, opts: &ReadOptions) -> Result<I
                 mesh.labels.push(Label {
                     name: material.as_ref().and_then(|m| m.name.clone()),
                     material,
+                    part: Some(instance as u32),
                 });
             }
             mesh.face_labels.resize(mesh.triangles.len(), label);
@@ -416,6 +428,8 @@ pub(super) fn read(bytes: &[u8], format: Format, opts: &ReadOptions) -> Result<I
     } else {
         mesh.normals.clear();
     }
+    mesh.scene = raw_scene.finish(parts, &mut dropped_scene);
+    mesh.attributes.dropped.append(&mut dropped_scene);
     if mesh.labels.len() <= 1 && mesh.labels.iter().all(|l| l.material.is_none()) {
         mesh.labels.clear();
         mesh.face_labels.clear();

@@ -100,7 +100,14 @@ pub(in crate::io) fn write(
     extra: &[Attribute],
     tangents: Option<&[[f32; 4]]>,
 ) -> Result<Vec<u8>, IoError> {
-    let grouped = super::primitives::by_label(mesh, extra, tangents);
+    let mut grouped = super::primitives::by_label(mesh, extra, tangents);
+    let label_parts = super::scene::label_parts(&grouped.mesh);
+    super::scene::localize(
+        &mut grouped.mesh,
+        grouped.tangents.as_mut(),
+        &grouped.ranges,
+        &label_parts,
+    );
     let (mesh, extra, tangents) = (
         &grouped.mesh,
         &grouped.extra[..],
@@ -236,6 +243,7 @@ pub(in crate::io) fn write(
     // (material index, verbatim JSON) of the materials written as read.
     let mut verbatim = Vec::new();
     let mut primitives = Vec::new();
+    let mut primitive_parts = Vec::new();
     // Per primitive, its custom attributes: gltf-json only names them with
     // its `extras` feature, so they are added to the JSON below.
     let mut extra_accessors: Vec<Vec<(String, usize)>> = Vec::new();
@@ -317,6 +325,7 @@ pub(in crate::io) fn write(
             }
             None => None,
         };
+        primitive_parts.push(label_parts[l]);
         primitives.push(json::mesh::Primitive {
             attributes,
             extensions: None,
@@ -331,37 +340,66 @@ pub(in crate::io) fn write(
         root.extensions_used
             .push("KHR_materials_emissive_strength".to_string());
     }
-    let mesh_index = root.push(json::Mesh {
-        extensions: None,
-        extras: Default::default(),
-        name: Some("isoremesh".to_string()),
-        primitives,
-        weights: None,
-    });
-    let node = root.push(json::Node {
-        mesh: Some(mesh_index),
-        ..Default::default()
-    });
-    let scene = root.push(json::Scene {
-        extensions: None,
-        extras: Default::default(),
-        name: None,
-        nodes: vec![node],
-    });
-    root.scene = Some(scene);
+    // One mesh per part (a single mesh without a scene), its primitives
+    // in write order; `at` is each primitive's (mesh, position).
+    let scene = mesh.scene.as_deref();
+    let plans = match scene {
+        Some(sc) => super::scene::plan(&primitive_parts, sc.parts.len()),
+        None => vec![super::scene::MeshPlan {
+            part: None,
+            primitives: (0..primitives.len()).collect(),
+        }],
+    };
+    let mut at = vec![(0, 0); primitives.len()];
+    let mut slots: Vec<Option<json::mesh::Primitive>> = primitives.into_iter().map(Some).collect();
+    for (m, plan) in plans.iter().enumerate() {
+        let prims = plan
+            .primitives
+            .iter()
+            .enumerate()
+            .filter_map(|(k, &i)| {
+                at[i] = (m, k);
+                slots[i].take()
+            })
+            .collect();
+        root.push(json::Mesh {
+            extensions: None,
+            extras: Default::default(),
+            name: Some("isoremesh".to_string()),
+            primitives: prims,
+            weights: None,
+        });
+    }
+    if scene.is_none() {
+        let node = root.push(json::Node {
+            mesh: Some(json::Index::new(0)),
+            ..Default::default()
+        });
+        let scene = root.push(json::Scene {
+            extensions: None,
+            extras: Default::default(),
+            name: None,
+            nodes: vec![node],
+        });
+        root.scene = Some(scene);
+    }
 
     let ser =
         |e: serde_json::Error| IoError::parse(format, format!("serializing the JSON failed: {e}"));
-    let json_text = if extra.is_empty() && verbatim.is_empty() && look.is_none() {
+    let plain = extra.is_empty() && verbatim.is_empty() && look.is_none() && scene.is_none();
+    let json_text = if plain {
         serde_json::to_vec(&root).map_err(ser)?
     } else {
         let mut doc = serde_json::to_value(&root).map_err(ser)?;
-        if let Some(prims) = doc["meshes"][0]["primitives"].as_array_mut() {
-            for (p, custom) in prims.iter_mut().zip(&extra_accessors) {
-                for (name, acc) in custom {
-                    p["attributes"][name] = serde_json::json!(acc);
-                }
+        for (i, custom) in extra_accessors.iter().enumerate() {
+            let (m, k) = at[i];
+            let p = &mut doc["meshes"][m]["primitives"][k];
+            for (name, acc) in custom {
+                p["attributes"][name] = serde_json::json!(acc);
             }
+        }
+        if scene.is_some() {
+            super::scene::write_graph(&mut doc, scene, &plans);
         }
         for (i, raw) in verbatim {
             doc["materials"][i] = raw;

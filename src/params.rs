@@ -10,12 +10,12 @@ use serde::{Deserialize, Serialize};
 use crate::features::DEFAULT_FEATURE_ANGLE_DEG;
 use crate::io::Format;
 use crate::remesh::{
-    RemeshError, RemeshOptions, Sizing, DEFAULT_GRADATION, DEFAULT_ITERATIONS,
-    DEFAULT_MIN_CREASE_LENGTH, DEFAULT_RELAXATION_STEPS,
+    RemeshError, RemeshOptions, Sizing, SmallParts, DEFAULT_GRADATION, DEFAULT_ITERATIONS,
+    DEFAULT_MIN_CREASE_LENGTH, DEFAULT_RELAXATION_STEPS, DEFAULT_SMALL_PART_SIZE,
 };
 
 /// Every parameter name, in the order of [`Params`]' fields.
-pub const PARAM_NAMES: [&str; 17] = [
+pub const PARAM_NAMES: [&str; 19] = [
     "target_edge_length",
     "target_edge_ratio",
     "target_faces",
@@ -26,6 +26,8 @@ pub const PARAM_NAMES: [&str; 17] = [
     "min_crease_length",
     "sizing",
     "refine_curved",
+    "small_parts",
+    "small_part_size",
     "tolerance",
     "tolerance_ratio",
     "min_edge_length",
@@ -75,6 +77,14 @@ pub struct Params {
     /// too tightly for edges of L.
     #[arg(long, default_value_t = true, action = ArgAction::Set)]
     pub refine_curved: bool,
+    /// Parts smaller than `small_part_size`: `keep` them as they are,
+    /// `remesh` them like the rest, or `drop` them.
+    #[arg(long, default_value_t = SmallParts::Keep)]
+    pub small_parts: SmallParts,
+    /// The bounding-box diagonal, in target lengths, under which a part is
+    /// small.
+    #[arg(long, default_value_t = DEFAULT_SMALL_PART_SIZE)]
+    pub small_part_size: f64,
     /// Adaptive sizing: absolute tolerance (default 0.1 % of the diagonal).
     #[arg(long, conflicts_with = "tolerance_ratio")]
     pub tolerance: Option<f64>,
@@ -116,6 +126,8 @@ impl Default for Params {
             min_crease_length: o.min_crease_length,
             sizing: o.sizing,
             refine_curved: o.refine_curved,
+            small_parts: o.small_parts,
+            small_part_size: o.small_part_size,
             tolerance: None,
             tolerance_ratio: None,
             min_edge_length: None,
@@ -154,6 +166,8 @@ impl Params {
             min_crease_length: self.min_crease_length,
             sizing: self.sizing,
             refine_curved: self.refine_curved,
+            small_parts: self.small_parts,
+            small_part_size: self.small_part_size,
             tolerance: self.tolerance,
             tolerance_ratio: self.tolerance_ratio,
             min_edge_length: self.min_edge_length,

@@ -89,6 +89,11 @@ pub struct JobStats {
     /// well seams, charts and the texture survived.
     #[serde(default)]
     pub attributes: AttributeStats,
+    /// The input's connected parts and what became of them: remeshed, or,
+    /// when smaller than `small_part_size` target lengths, kept as they
+    /// were or dropped.
+    #[serde(default)]
+    pub parts: crate::remesh::PartsReport,
 }
 
 /// The result of [`run`].
@@ -230,6 +235,7 @@ pub fn measure(input: &LoadedInput, remeshed: &Remeshed, options: &RemeshOptions
     );
     JobStats {
         attributes,
+        parts: out.report.parts,
         headline: output_stats.headline(),
         input: input_stats,
         output: output_stats,

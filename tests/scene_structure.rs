@@ -429,3 +429,77 @@ fn interpenetrating_parts_stay_on_their_own_surfaces() {
         );
     }
 }
+
+#[test]
+fn a_part_smaller_than_its_limit_is_kept_remeshed_or_dropped() {
+    use isoremesh::remesh::SmallParts;
+    // A sphere of radius 1 and, beside it, a bead 0.1 across: under L = 0.1
+    // the bead is small (its diagonal, about 0.17, is under 2·L).
+    let bead = shapes::translated(
+        {
+            let mut b = shapes::icosphere(2);
+            b.positions.iter_mut().for_each(|p| *p *= 0.05);
+            b
+        },
+        DVec3::new(2.0, 0.0, 0.0),
+    );
+    let soup = shapes::union(&[shapes::icosphere(3), bead.clone()]);
+    let bytes = io::write(&soup, Format::Obj, &Default::default()).unwrap();
+    let input = pipeline::load(&bytes, Some("bead.obj"), None, &ReadOptions::default()).unwrap();
+    let near_bead = |m: &TriMesh| m.positions.iter().filter(|p| p.x > 1.5).count();
+    let faces_near_bead = |m: &TriMesh| {
+        m.triangles
+            .iter()
+            .filter(|t| m.positions[t[0] as usize].x > 1.5)
+            .count()
+    };
+    for policy in [SmallParts::Keep, SmallParts::Remesh, SmallParts::Drop] {
+        let options = RemeshOptions {
+            target_edge_length: Some(0.1),
+            small_parts: policy,
+            ..Default::default()
+        };
+        let out = pipeline::run(&input, &options, &mut NoObserver).unwrap();
+        let parts = out.report.parts;
+        assert_eq!(parts.total, 2, "{policy}");
+        let m = &out.mesh;
+        match policy {
+            SmallParts::Keep => {
+                assert_eq!((parts.kept, parts.remeshed, parts.dropped), (1, 1, 0));
+                // The bead's triangles, exactly as they came.
+                assert_eq!(faces_near_bead(m), bead.triangles.len());
+                let mut got: Vec<[u64; 3]> = m
+                    .positions
+                    .iter()
+                    .filter(|p| p.x > 1.5)
+                    .map(|p| p.to_array().map(f64::to_bits))
+                    .collect();
+                let mut want: Vec<[u64; 3]> = bead
+                    .positions
+                    .iter()
+                    .map(|p| p.to_array().map(f64::to_bits))
+                    .collect();
+                got.sort_unstable();
+                want.sort_unstable();
+                assert_eq!(got, want, "kept vertices are the input's");
+            }
+            SmallParts::Remesh => {
+                assert_eq!((parts.kept, parts.remeshed, parts.dropped), (0, 2, 0));
+                assert!(near_bead(m) > 0 && faces_near_bead(m) != bead.triangles.len());
+            }
+            SmallParts::Drop => {
+                assert_eq!((parts.kept, parts.remeshed, parts.dropped), (0, 1, 1));
+                assert_eq!(near_bead(m), 0);
+            }
+        }
+    }
+    // A lone part is never small, whatever L.
+    let lone = io::write(&bead, Format::Obj, &Default::default()).unwrap();
+    let input = pipeline::load(&lone, Some("lone.obj"), None, &ReadOptions::default()).unwrap();
+    let options = RemeshOptions {
+        target_edge_length: Some(0.1),
+        ..Default::default()
+    };
+    let out = pipeline::run(&input, &options, &mut NoObserver).unwrap();
+    assert_eq!(out.report.parts.remeshed, 1);
+}

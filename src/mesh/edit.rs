@@ -371,6 +371,32 @@ impl Mesh {
         }
     }
 
+    /// Deletes whole parts: every vertex for which `remove` is true, with
+    /// its edges and faces. `remove` must hold on whole connected parts
+    /// (every neighbour of a removed vertex is removed), so that no kept
+    /// element loses a neighbour.
+    pub fn remove_parts(&mut self, remove: impl Fn(VertexId) -> bool) {
+        let doomed: Vec<VertexId> = self.vertices().filter(|&v| remove(v)).collect();
+        for &v in &doomed {
+            if !self.is_isolated(v) {
+                let out: Vec<HalfedgeId> = self.outgoing(v).collect();
+                for h in out {
+                    debug_assert!(remove(self.to_vertex(h)), "a part is removed whole");
+                    if !self.e_deleted[h.edge().idx()] {
+                        self.delete_edge(h.edge());
+                    }
+                    let f = self.face(h);
+                    if f.is_valid() && !self.f_deleted[f.idx()] {
+                        self.delete_face(f);
+                    }
+                }
+            }
+            self.v_deleted[v.idx()] = true;
+            self.v_out[v.idx()] = HalfedgeId::INVALID;
+            self.live_vertices -= 1;
+        }
+    }
+
     fn delete_edge(&mut self, e: EdgeId) {
         debug_assert!(!self.e_deleted[e.idx()]);
         self.e_deleted[e.idx()] = true;

@@ -39,6 +39,10 @@ pub const EDGE_FEATURE: u8 = 1;
 /// colour differs across it); always set together with [`EDGE_FEATURE`].
 pub const EDGE_SEAM: u8 = 2;
 
+/// Edge flag bit: the edge belongs to a part the remesher leaves as it is
+/// (a small part kept): no pass splits or flips it.
+pub const EDGE_FROZEN: u8 = 4;
+
 /// A manifold, consistently oriented triangle mesh in half-edge form.
 #[derive(Clone, Debug, Default)]
 pub struct Mesh {

@@ -15,7 +15,7 @@ use super::guards::{FLIP_MAX_DIHEDRAL_COS, FLIP_MIN_QUALITY};
 use super::state::State;
 use super::RemeshError;
 use crate::geometry::{triangle_cross, triangle_quality};
-use crate::mesh::{EdgeId, HalfedgeId, Handle, Mesh, VertexId};
+use crate::mesh::{EdgeId, HalfedgeId, Handle, Mesh, VertexId, EDGE_FROZEN};
 
 /// Sweeps over the edges per pass at most.
 pub(super) const MAX_SWEEPS: usize = 6;
@@ -166,7 +166,7 @@ fn flip_wanted(st: &State, valence: &[i32], target: &[i32], e: EdgeId) -> bool {
 fn flip_wanted_quad(st: &State, e: EdgeId, q: [VertexId; 4], (before, after): (i32, i32)) -> bool {
     let m = &st.mesh;
     debug_assert!(!m.is_edge_deleted(e), "no quad for a deleted edge");
-    if st.line_of(e).is_some() || m.is_boundary_edge(e) {
+    if st.line_of(e).is_some() || m.is_boundary_edge(e) || m.edge_has_flag(e, EDGE_FROZEN) {
         return false;
     }
     if after > before {

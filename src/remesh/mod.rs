@@ -24,15 +24,18 @@ mod collapse;
 mod flip;
 mod guards;
 mod options;
+mod parts;
 mod relax;
 mod repair;
 mod split;
 mod state;
 
 pub use options::{
-    estimated_faces, RemeshOptions, Sizing, DEFAULT_GRADATION, DEFAULT_ITERATIONS,
+    estimated_faces, RemeshOptions, Sizing, SmallParts, DEFAULT_GRADATION, DEFAULT_ITERATIONS,
     DEFAULT_MAX_OUTPUT_FACES, DEFAULT_MIN_CREASE_LENGTH, DEFAULT_RELAXATION_STEPS,
+    DEFAULT_SMALL_PART_SIZE,
 };
+pub use parts::PartsReport;
 
 use serde::{Deserialize, Serialize};
 use std::sync::Mutex;
@@ -234,6 +237,10 @@ pub struct RemeshReport {
     /// Vertices moved by the final shape pass (see the relaxation pass).
     #[serde(default)]
     pub repair_moves: u64,
+    /// The input's connected parts, and which were remeshed, kept as they
+    /// were or dropped (see [`RemeshOptions::small_parts`]).
+    #[serde(default)]
+    pub parts: PartsReport,
     /// Counts per iteration.
     pub iterations: Vec<IterationReport>,
     /// Time per pass.
@@ -523,6 +530,7 @@ impl RemeshReport {
             corners: st.features.corners().len() as u64,
             feature_lines: st.features.lines().len() as u64,
             fixed_turns: st.fixed_turns,
+            parts: st.parts,
             ..Default::default()
         }
     }

@@ -65,6 +65,52 @@ impl std::str::FromStr for Sizing {
     }
 }
 
+/// Default [`RemeshOptions::small_part_size`], in target lengths: a closed
+/// part whose bounding box is under 2·L across carries only a handful of
+/// band-length edges (a cube of that diagonal, 1.15·L a side, has about a
+/// dozen), too few to keep its shape.
+pub const DEFAULT_SMALL_PART_SIZE: f64 = 2.0;
+
+/// What happens to a part (a connected piece of the input) smaller than
+/// [`RemeshOptions::small_part_size`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SmallParts {
+    /// Left exactly as it came: its triangles are copied, not remeshed.
+    #[default]
+    Keep,
+    /// Remeshed like every other part, whatever its size.
+    Remesh,
+    /// Removed from the output.
+    Drop,
+}
+
+impl std::fmt::Display for SmallParts {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            SmallParts::Keep => "keep",
+            SmallParts::Remesh => "remesh",
+            SmallParts::Drop => "drop",
+        })
+    }
+}
+
+impl std::str::FromStr for SmallParts {
+    type Err = String;
+
+    /// Parses `keep`, `remesh` or `drop`, case-insensitively.
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.to_ascii_lowercase().as_str() {
+            "keep" => Ok(SmallParts::Keep),
+            "remesh" => Ok(SmallParts::Remesh),
+            "drop" => Ok(SmallParts::Drop),
+            _ => Err(format!(
+                "{s:?} is not a small-part policy; use keep, remesh or drop"
+            )),
+        }
+    }
+}
+
 /// Options of [`super::remesh`]. Construct with `Default` and the `with_*`
 /// builders, or fill the public fields; [`RemeshOptions::validate`] runs
 /// before any work.
@@ -120,6 +166,13 @@ pub struct RemeshOptions {
     /// graded by `gradation`. Edges stay in the band [4/5·L, 4/3·L] nearly
     /// everywhere while tight curves are followed more closely. Default true.
     pub refine_curved: bool,
+    /// What to do with a part whose bounding-box diagonal is under
+    /// `small_part_size` target lengths. Default keep.
+    pub small_parts: SmallParts,
+    /// The size, in target lengths (under adaptive sizing the smallest
+    /// allowed target), below which a part is small. Default
+    /// [`DEFAULT_SMALL_PART_SIZE`].
+    pub small_part_size: f64,
     /// Adaptive sizing: absolute approximation tolerance ε.
     pub tolerance: Option<f64>,
     /// Adaptive sizing: tolerance as a fraction of the bounding-box diagonal
@@ -164,6 +217,8 @@ impl Default for RemeshOptions {
             min_crease_length: DEFAULT_MIN_CREASE_LENGTH,
             sizing: Sizing::Uniform,
             refine_curved: true,
+            small_parts: SmallParts::Keep,
+            small_part_size: DEFAULT_SMALL_PART_SIZE,
             tolerance: None,
             tolerance_ratio: None,
             min_edge_length: None,
@@ -285,6 +340,12 @@ impl RemeshOptions {
         }
         if self.iterations > 1000 {
             return Err(invalid("iterations", "must be at most 1000"));
+        }
+        if !(self.small_part_size.is_finite() && self.small_part_size >= 0.0) {
+            return Err(invalid(
+                "small_part_size",
+                "must be a finite number of target lengths, 0 or more",
+            ));
         }
         if self.relaxation_steps > 100 {
             return Err(invalid("relaxation_steps", "must be at most 100"));

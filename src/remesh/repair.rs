@@ -22,7 +22,7 @@ use super::relax::{settle, walk_closest};
 use super::state::{State, COLLAPSE_FACTOR, CORNER, SMOOTH, SPLIT_FACTOR};
 use super::RemeshError;
 use crate::geometry::{triangle_cross, triangle_min_angle_cos, triangle_quality};
-use crate::mesh::{EdgeId, FaceId, Handle, VertexId};
+use crate::mesh::{EdgeId, FaceId, Handle, VertexId, EDGE_FROZEN};
 
 /// The sliver repair after the last iteration: flips, shape moves, and
 /// flips again around what the moves changed. Returns (flips, moves).
@@ -142,7 +142,11 @@ fn sliver_flip(st: &State, f: FaceId) -> Option<EdgeId> {
     let k = (0..3).fold(0, |k, i| if len[i] > len[k] { i } else { k });
     let h = [h1, h2, h0][k];
     let e = h.edge();
-    if st.line_of(e).is_some() || m.is_boundary_edge(e) || !m.can_flip(e) {
+    if st.line_of(e).is_some()
+        || m.is_boundary_edge(e)
+        || m.edge_has_flag(e, EDGE_FROZEN)
+        || !m.can_flip(e)
+    {
         return None;
     }
     let q = quad(m, h);

@@ -16,10 +16,13 @@ use std::collections::BinaryHeap;
 use super::state::{State, SPLIT_FACTOR};
 use super::RemeshError;
 use crate::geometry::triangle_cross;
-use crate::mesh::{EdgeId, Handle};
+use crate::mesh::{EdgeId, Handle, EDGE_FROZEN};
 
 /// How much longer than its split limit edge `e` is (> 1 means split it).
 fn excess(st: &State, e: EdgeId) -> f64 {
+    if st.mesh.edge_has_flag(e, EDGE_FROZEN) {
+        return 0.0;
+    }
     let [a, b] = st.mesh.edge_vertices(e);
     let len = st.mesh.position(a).distance(st.mesh.position(b));
     len / (SPLIT_FACTOR * st.edge_target(a, b))
@@ -119,7 +122,7 @@ pub(super) fn split_deviating_edges(st: &mut State) -> Result<u64, RemeshError> 
     }
     let candidates: Vec<(u32, [u32; 2], DVec3, u32)> = st.par_edges(|e| {
         let m = &st.mesh;
-        if m.is_boundary_edge(e) || st.line_of(e).is_some() {
+        if m.is_boundary_edge(e) || st.line_of(e).is_some() || m.edge_has_flag(e, EDGE_FROZEN) {
             return None;
         }
         let [a, b] = m.edge_vertices(e);

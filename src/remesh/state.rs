@@ -14,6 +14,7 @@ use std::sync::Arc;
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::parts::PartsReport;
 use super::{Cancel, RemeshError, RemeshOptions, Sizing};
 use crate::bvh::SurfaceIndex;
 use crate::curvature;
@@ -70,6 +71,8 @@ pub(super) struct State<'c> {
     /// is projected only onto the part it came from, never onto another
     /// part passing through it. `None` when the input is one part.
     pub face_part: Option<Vec<u32>>,
+    /// The input's parts and what became of the small ones.
+    pub parts: PartsReport,
     /// Feature-line vertices kept fixed where the input's line turns.
     pub fixed_turns: u64,
     /// The worker pool of the parallel passes.
@@ -95,6 +98,7 @@ pub(super) struct PartialState {
     vertex_faces: Vec<u32>,
     face_neighbors: Vec<[u32; 3]>,
     face_part: Option<Vec<u32>>,
+    parts: PartsReport,
     fixed_turns: u64,
 }
 
@@ -122,6 +126,7 @@ impl<'c> State<'c> {
             vertex_faces: p.vertex_faces,
             face_neighbors: p.face_neighbors,
             face_part: p.face_part,
+            parts: p.parts,
             fixed_turns: p.fixed_turns,
             pool: std::sync::Arc::new(pool),
             cancel,
@@ -182,6 +187,9 @@ impl<'c> State<'c> {
             fixed_turns,
         } = reference?;
         cancel.now()?;
+        let mut kind = kind;
+        let unit = uniform_l.unwrap_or_else(|| adaptive_options(options, diag).min_edge_length);
+        let parts = super::parts::apply(&mut mesh, &mut kind, unit, options);
         let nv = mesh.vertex_capacity();
         let mut hint_face = vec![0u32; nv];
         for f in mesh.faces() {
@@ -209,6 +217,7 @@ impl<'c> State<'c> {
             .collect();
         let face_part = face_parts(tm, &face_neighbors, options.preserve_features);
         Ok(PartialState {
+            parts,
             face_part,
             face_neighbors,
             fixed_turns,

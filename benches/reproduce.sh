@@ -59,6 +59,95 @@ from meshload import bbox_diag, load_mesh
 print(repr(0.0075 * bbox_diag(load_mesh(sys.argv[1])[0])))' "$1"
 }
 
+# Seconds since $1 (an $EPOCHREALTIME), to the millisecond.
+elapsed() { awk -v a="$1" -v b="$EPOCHREALTIME" 'BEGIN { printf "%.3f\n", b - a }'; }
+
+# Runs a command, its output discarded, and prints its wall time in seconds.
+seconds() {
+    local t0=$EPOCHREALTIME
+    "$@" >/dev/null || return
+    elapsed "$t0"
+}
+
+# The median of the numbers given, with their range: "MEDIAN (MIN–MAX)".
+median() {
+    python3 -c 'import statistics, sys
+v = sorted(map(float, sys.argv[1:]))
+print(f"{statistics.median(v):.3f} ({v[0]:.3f}–{v[-1]:.3f})")' "$@"
+}
+
+# Our whole-process seconds in the JSON file of a peers.py run (or the
+# status of a run that did not succeed).
+ours_seconds() {
+    python3 -c 'import json, sys
+r = next(r for r in json.load(open(sys.argv[1]))["runs"] if r["tool"] == "ours")
+print("%.2f" % r["seconds"] if r["status"] == "ok" else r["status"])' "$1"
+}
+
+# A shape of src/shapes.rs written as an OBJ in $OUT, by the same formulas:
+# `torus`, the criterion bench's 1M-triangle torus (shapes::torus(3, 1, 2000,
+# 250)), or `rod`, the strip of tests/remesh_anisotropic.rs
+# (shapes::open_cylinder(1, 36, 48, 1)). Prints the path.
+shape_obj() {
+    local path=$OUT/$1.obj
+    [[ -e $path ]] || python3 -c 'import math, sys
+shape, path = sys.argv[1:]
+v = []
+if shape == "torus":
+    nu, nv, major, minor = 2000, 250, 3.0, 1.0
+    for i in range(nu):
+        u = math.tau * i / nu
+        for j in range(nv):
+            a = math.tau * j / nv
+            r = major + minor * math.cos(a)
+            v.append((r * math.cos(u), r * math.sin(u), minor * math.sin(a)))
+    k = lambda i, j: (i % nu) * nv + j % nv
+    quads = [(k(i, j), k(i + 1, j), k(i + 1, j + 1), k(i, j + 1))
+             for i in range(nu) for j in range(nv)]
+else:
+    radius, height, segments, rows = 1.0, 36.0, 48, 1
+    for i in range(rows + 1):
+        z = height * i / rows
+        for j in range(segments):
+            a = math.tau * j / segments
+            v.append((radius * math.cos(a), radius * math.sin(a), z))
+    k = lambda i, j: i * segments + j % segments
+    quads = [(k(i, j), k(i, j + 1), k(i + 1, j + 1), k(i + 1, j))
+             for i in range(rows) for j in range(segments)]
+with open(path, "w") as out:
+    out.writelines("v %r %r %r\n" % p for p in v)
+    out.writelines("f %d %d %d\nf %d %d %d\n" % (a + 1, b + 1, c + 1, a + 1, c + 1, d + 1)
+                   for a, b, c, d in quads)' "$1" "$path"
+    printf '%s\n' "$path"
+}
+
+# Edits of src/main.rs for `variant`: the system allocator instead of
+# mimalloc, and transparent huge pages left as the system sets them.
+NO_MIMALLOC='/^#\[global_allocator\]$/d; /^static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;$/d'
+HUGE_PAGES_ON='s/^    disable_transparent_huge_pages();$/    let _ = disable_transparent_huge_pages as fn();/'
+
+# variant NAME PROFILE EDIT...: builds the binary of PROFILE from a copy of
+# the repository whose src/main.rs has the given sed edits, as
+# $OUT/variants/NAME. The repository itself is not touched.
+variant() {
+    local name=$1 profile=$2 copy=$OUT/variants/$1.src edit
+    shift 2
+    rm -rf "$copy"
+    mkdir -p "$copy"
+    tar -c --exclude=./target --exclude=./.git . | tar -x -C "$copy"
+    for edit in "$@"; do
+        cp "$copy/src/main.rs" "$copy/main.rs.before"
+        sed -i "$edit" "$copy/src/main.rs"
+        if cmp -s "$copy/main.rs.before" "$copy/src/main.rs"; then
+            echo "reproduce.sh: the edit '$edit' no longer applies to src/main.rs" >&2
+            exit 1
+        fi
+    done
+    cargo build --manifest-path "$copy/Cargo.toml" --profile "$profile" --bin isoremesh \
+        --target-dir "$OUT/variants/target"
+    cp "$OUT/variants/target/$profile/isoremesh" "$OUT/variants/$name"
+}
+
 usage() {
     cat <<'EOF'
 usage: benches/reproduce.sh <name> [arguments]
@@ -80,6 +169,22 @@ usage: benches/reproduce.sh <name> [arguments]
   forced-angles MESH [OUT]     feature sectors of MESH, and with OUT (a remesh of
                                MESH) its smallest angles inside and outside them
   check-stats IN OUT           isoremesh stats against quality.py on one pair
+  service [SERVE OPTIONS]      submit-to-succeeded times of igea and the bunny, 5 runs
+                               each, against `isoremesh serve` (release binary) on a
+                               free port; extra options go to serve (e.g.
+                               --max-prepared-bytes 0); needs curl and jq
+  shipped [PART...]            what the shipped binary's choices buy; PART is
+                               profiles (dist against release: callgrind on camelhead,
+                               the 1M torus), allocator (mimalloc against glibc) or
+                               huge-pages (transparent huge pages on and off); default
+                               all three; builds variants in $OUT/variants
+  obj                          texture coordinates through OBJ: spot.obj's `vt`, the
+                               Duck written as OBJ and read back, and the time texture
+                               coordinates add
+  noise-creases                smallest angles and crease-sample distances of ours and
+                               gpytoolbox on igea, the bunny and camelhead
+  engine [PEERS.PY OPTIONS]    2CylinderEngine: every tool, the builder's repairs, the
+                               welded topology, and the rod of tests/remesh_anisotropic.rs
 
 MESH is a path, or a path inside $SHARED/meshes (e.g. gltf/Duck.glb).
 EOF
@@ -173,6 +278,224 @@ check-stats)
     # repository, whatever $SHARED says.
     python3 benches/check_stats.py --bin target/release/isoremesh \
         --pair "$(mesh_path "$1")" "$(abs "$2")"
+    ;;
+service)
+    build_release
+    bin=target/release/isoremesh
+    mkdir -p "$OUT"
+    data=$(mktemp -d)
+    port=$(python3 -c 'import socket
+s = socket.socket()
+s.bind(("127.0.0.1", 0))
+print(s.getsockname()[1])')
+    "$bin" serve --listen "127.0.0.1:$port" --data-dir "$data" "$@" 2>"$OUT/service.log" &
+    server=$!
+    trap 'kill "$server" 2>/dev/null || true; wait "$server" 2>/dev/null || true; rm -rf "$data"' EXIT
+    base=http://127.0.0.1:$port
+    for _ in {1..100}; do
+        curl -sf "$base/healthz" >/dev/null && break
+        if ! kill -0 "$server" 2>/dev/null; then
+            echo "reproduce.sh: serve exited; see $OUT/service.log" >&2
+            exit 1
+        fi
+        sleep 0.1
+    done
+    if ! curl -sf "$base/healthz" >/dev/null; then
+        echo "reproduce.sh: serve does not answer on $base; see $OUT/service.log" >&2
+        exit 1
+    fi
+    # Seconds from just before the POST until a poll, every 20 ms, sees
+    # `succeeded`; the job is deleted afterwards.
+    submit() {
+        local t0=$EPOCHREALTIME id status
+        id=$(curl -sSf -F "mesh=@$1" -F 'params={"target_edge_ratio":0.0075}' \
+            "$base/v1/jobs" | jq -er .id) || return
+        while :; do
+            status=$(curl -sSf "$base/v1/jobs/$id" | jq -er .status) || return
+            case $status in
+            succeeded) break ;;
+            failed | cancelled)
+                echo "reproduce.sh: job $id $status" >&2
+                return 1
+                ;;
+            esac
+            sleep 0.02
+        done
+        elapsed "$t0"
+        curl -sSf -X DELETE "$base/v1/jobs/$id" >/dev/null
+    }
+    meshes=(igea.ply stanford-bunny.obj)
+    declare -A waits=()
+    # Interleaved: igea, bunny, igea, bunny, ...
+    for _ in 1 2 3 4 5; do
+        for m in "${meshes[@]}"; do
+            t=$(submit "$MESHES/$m")
+            waits[$m]+=" $t"
+        done
+    done
+    for m in "${meshes[@]}"; do
+        echo "$m: submit to succeeded $(median ${waits[$m]}) s (median, min–max of 5)"
+    done
+    ;;
+shipped)
+    [[ $# -gt 0 ]] || set -- profiles allocator huge-pages
+    build_release
+    build_dist
+    mkdir -p "$OUT/variants"
+    cp target/release/isoremesh "$OUT/variants/release"
+    cp target/dist/isoremesh "$OUT/variants/dist"
+    ratio=(--target-edge-ratio 0.0075)
+    torus=$(shape_obj torus)
+    for part in "$@"; do
+        echo "## $part"
+        case $part in
+        profiles)
+            for b in release dist; do
+                n=$(valgrind --tool=callgrind --callgrind-out-file=/dev/null "$OUT/variants/$b" \
+                    remesh "$MESHES/camelhead.off" "$OUT/camelhead.$b.obj" "${ratio[@]}" 2>&1 |
+                    sed -n 's/.*Collected : //p')
+                echo "camelhead, $b: $n instructions"
+            done
+            # The 1M torus through the CLI with --stats, the two builds alternating.
+            for _ in 1 2 3; do
+                for b in dist release; do
+                    t=$(seconds "$OUT/variants/$b" remesh "$torus" "$OUT/torus.$b.obj" \
+                        --stats "$OUT/torus.$b.stats.json")
+                    echo "1M torus, $b: $t s"
+                done
+            done
+            ;;
+        allocator)
+            # Both allocators with huge pages left as the system sets them.
+            variant release-glibc release "$NO_MIMALLOC" "$HUGE_PAGES_ON"
+            variant dist-glibc dist "$NO_MIMALLOC" "$HUGE_PAGES_ON"
+            variant dist-huge-pages dist "$HUGE_PAGES_ON"
+            builds=(release-glibc dist-glibc dist-huge-pages)
+            declare -A camel=()
+            for _ in 1 2 3 4 5 6 7 8; do
+                for b in "${builds[@]}"; do
+                    t=$(seconds "$OUT/variants/$b" remesh "$MESHES/camelhead.off" \
+                        "$OUT/camelhead.$b.obj" "${ratio[@]}")
+                    camel[$b]+=" $t"
+                done
+            done
+            for b in "${builds[@]}"; do
+                echo "camelhead, $b: $(median ${camel[$b]}) s (median, min–max of 8)"
+            done
+            for b in dist-glibc dist-huge-pages; do
+                for m in spot.obj stanford-bunny.obj; do
+                    /usr/bin/time -f "$m, $b: %R minor page faults, peak RSS %M KB" \
+                        "$OUT/variants/$b" remesh "$MESHES/$m" "$OUT/alloc.obj" "${ratio[@]}"
+                done
+                /usr/bin/time -f "1M torus, $b: %R minor page faults, peak RSS %M KB" \
+                    "$OUT/variants/$b" remesh "$torus" "$OUT/alloc.obj"
+            done
+            ;;
+        huge-pages)
+            variant dist-huge-pages dist "$HUGE_PAGES_ON"
+            # Right after a CGAL run, as in `peers`: peers.py runs and scores
+            # CGAL, then runs ours, whose peak RSS /usr/bin/time writes.
+            for m in spot.obj fertility.off cube.obj stanford-bunny.obj; do
+                for b in dist-huge-pages dist; do
+                    for _ in 1 2 3; do
+                        python3 "$SHARED/bench/peers.py" "$MESHES/$m" --tools cgal \
+                            --ours "/usr/bin/time -f %M -o $OUT/rss $OUT/variants/$b $OURS_ARGS" \
+                            --json "$OUT/huge-pages.json" >/dev/null 2>&1
+                        t=$(ours_seconds "$OUT/huge-pages.json")
+                        echo "$m, $b: $t s, peak RSS $(tail -n 1 "$OUT/rss") KB"
+                    done
+                done
+            done
+            # Warm memory: the runs follow each other.
+            for b in dist-huge-pages dist; do
+                for _ in 1 2 3; do
+                    t=$(seconds "$OUT/variants/$b" remesh "$MESHES/igea.ply" "$OUT/igea.$b.obj" \
+                        "${ratio[@]}")
+                    echo "igea, $b: $t s"
+                done
+                for _ in 1 2 3; do
+                    t=$(seconds "$OUT/variants/$b" remesh "$torus" "$OUT/torus.$b.obj")
+                    echo "1M torus, $b: $t s"
+                done
+            done
+            ;;
+        *)
+            usage >&2
+            exit 2
+            ;;
+        esac
+    done
+    ;;
+obj)
+    build_release
+    bin=target/release/isoremesh
+    dir=$OUT/obj
+    mkdir -p "$dir"
+    ratio=(--target-edge-ratio 0.0075)
+    "$bin" remesh "$MESHES/spot.obj" "$dir/spot.glb" "${ratio[@]}" \
+        --stats "$dir/spot.stats.json" >/dev/null
+    jq -r '.attributes.texcoords[0] as $t |
+        "spot.obj: \(.output.faces) faces, \($t.charts_out) charts, " +
+        "\($t.seam_within_1pct_l) of the seam length within 0.01·L, " +
+        "\($t.uv_flipped) UV-flipped, \($t.uv_degenerate) UV-degenerate triangles"' \
+        "$dir/spot.stats.json"
+    # The Duck written as OBJ, .mtl and PNG (no iterations: the repaired
+    # input as it is), then read back and remeshed.
+    "$bin" remesh "$MESHES/gltf/Duck.glb" "$dir/Duck.obj" --iterations 0
+    "$bin" remesh "$dir/Duck.obj" "$dir/Duck.glb" "${ratio[@]}" \
+        --stats "$dir/Duck.stats.json" >/dev/null
+    jq -r '.attributes.texcoords[0].color_error | "Duck through OBJ: colour error mean \(.mean), " +
+        "p99 \(.p99) (R, G, B, A; 8-bit units)"' "$dir/Duck.stats.json"
+    # Whole process with and without texture coordinates: each file against
+    # a copy with its positions and faces only (the welded OBJ of meshload.py).
+    for m in gltf/Duck.glb spot.obj; do
+        in=$MESHES/$m
+        plain=$dir/$(basename "${in%.*}").plain.obj
+        python3 -c 'import sys
+from meshload import load_mesh, write_obj
+write_obj(sys.argv[2], *load_mesh(sys.argv[1]))' "$in" "$plain"
+        with='' without=''
+        for _ in 1 2 3 4 5 6 7; do
+            with+=" $(seconds "$bin" remesh "$in" "$dir/o.glb" "${ratio[@]}")"
+            without+=" $(seconds "$bin" remesh "$plain" "$dir/o.glb" "${ratio[@]}")"
+        done
+        echo "$m: with texture coordinates $(median $with) s, positions only $(median $without) s"
+    done
+    ;;
+noise-creases)
+    build_dist
+    mkdir -p "$OUT"
+    python3 "$SHARED/bench/peers.py" "$MESHES/igea.ply" "$MESHES/stanford-bunny.obj" \
+        "$MESHES/camelhead.off" --tools gpytoolbox \
+        --ours "target/dist/isoremesh $OURS_ARGS" --json "$OUT/noise-creases.json" >/dev/null
+    python3 -c 'import json, sys
+for r in json.load(open(sys.argv[1]))["runs"]:
+    q = r.get("quality")
+    if q:
+        print("%s, %s: smallest angle %.1f°, largest crease-sample distance %.2f·L" % (
+            r["mesh"], r["tool"], q["angles"]["min_deg"], q["features"]["max_over_L"]))' \
+        "$OUT/noise-creases.json"
+    ;;
+engine)
+    build_dist
+    mkdir -p "$OUT"
+    bin=target/dist/isoremesh
+    engine=$MESHES/gltf/2CylinderEngine.glb
+    python3 "$SHARED/bench/peers.py" "$engine" --tools pymeshlab,meshlib,gpytoolbox,cgal \
+        --ours "$bin $OURS_ARGS" --json "$OUT/engine.json" "$@"
+    echo "repairs: $("$bin" stats --json "$engine" | jq -c .repairs)"
+    "$bin" remesh "$engine" "$OUT/engine.obj" --target-edge-length "$(bench_length "$engine")" \
+        --stats "$OUT/engine.stats.json" >/dev/null
+    jq -r '"welded (the statistics): input χ \(.input.euler_characteristic), " +
+        "\(.input.boundary_loops) loops; output χ \(.output.euler_characteristic), " +
+        "\(.output.boundary_loops) loops, \(.output.vertices) vertices"' "$OUT/engine.stats.json"
+    rod=$(shape_obj rod)
+    "$bin" remesh "$rod" "$OUT/rod.out.obj" --target-edge-length 1 --refine-curved false \
+        --stats "$OUT/rod.stats.json" >/dev/null
+    jq -r '.output | "rod: \(.faces) faces, \(.angles.below_30_fraction) of them below 30°, " +
+        "smallest angle \(.angles.min_deg)°, " +
+        "\(.edge_length.within_band) of the edges in the band"' \
+        "$OUT/rod.stats.json"
     ;;
 help | -h | --help)
     usage

@@ -47,11 +47,10 @@ use crate::trimesh::TriMesh;
 /// two faces, with the smaller vertex index first.
 pub type FeatureEdgeFn<'a> = &'a (dyn Fn(u32, u32) -> bool + Sync);
 
-/// Default number of smoothing passes applied by [`principal_curvatures`].
-/// Two passes of a ½-weighted neighbour average halve the worst
-/// triangle-to-triangle noise of the per-face fits on irregular meshes (max
-/// error 12 % → 6 % on a jittered icosphere, see the tests) while moving a
-/// smoothly varying curvature by O(h²) only.
+/// Default number of smoothing passes applied by [`principal_curvatures`]:
+/// two ½-weighted neighbour averages halve the worst noise of the per-face
+/// fits on irregular meshes, while a smoothly varying curvature moves by
+/// O(h²) only (`docs/tuning.md`).
 pub const DEFAULT_SMOOTHING_PASSES: u32 = 2;
 
 /// Turning angle (radians) at or above which a vertex of a feature or

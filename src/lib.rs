@@ -7,12 +7,13 @@
 //! | module | owns |
 //! |---|---|
 //! | [`geometry`] | triangle area, normal, angles, shape quality |
+//! | [`topology`] | shared adjacency: compressed rows (CSR) for per-vertex lists, the undirected edge table of a triangle list, union-find, grouping corners into smooth fans |
 //! | [`trimesh`] | [`TriMesh`], the indexed triangle mesh exchanged between layers |
 //! | [`mesh`] | the half-edge [`mesh::Mesh`]: building with repair, split/collapse/flip with guards, compaction, validation |
-//! | [`features`] | sharp-feature detection on a [`TriMesh`]: feature edges, corners, feature lines with per-line closest-point queries; the feature-fidelity metric |
+//! | [`features`] | sharp-feature detection on a [`TriMesh`]: feature edges, corners, the crease filters, feature lines with per-line closest-point queries, and which vertices the remesher keeps fixed |
 //! | [`io`] | bytes ⇄ [`TriMesh`] for OBJ, glTF/GLB, STL, PLY, OFF; format detection; split normals |
-//! | [`bvh`] | the obvhs-built tree over triangles and our closest-point query |
-//! | [`stats`] | quality statistics: edge lengths, valence, angles, distances |
+//! | [`bvh`] | the one bounding-volume hierarchy (obvhs-built, our closest-point and radius queries) and its clients for triangles (the surface), segments and points |
+//! | [`stats`] | quality statistics: edge lengths, valence, angles, distances, feature and boundary fidelity, attributes |
 //! | [`curvature`] | per-vertex principal curvatures (Rusinkiewicz 2004), feature-aware, and feature-polyline curvature |
 //! | [`remesh`] | the Botsch–Kobbelt remesher: options, driver, one pass per file, progress and cancellation |
 //! | [`appearance`] | per-vertex texture coordinates and colours, and the textures and images a mesh's materials use |

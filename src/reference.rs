@@ -1,8 +1,11 @@
 //! The per-job reference: the input as read, the repaired half-edge mesh and
 //! its triangles, the spatial index over them, the welded view that the
 //! statistics measure, and the input's measured feature set. A job builds it
-//! once; the remesher and the statistics both read it, so no part of the
-//! input is parsed, welded, indexed or detected twice.
+//! once; the remesher and the statistics both read it, so the input's
+//! geometry is parsed, repaired, welded, indexed and detected once. Texture
+//! coordinates and colours add their own weld and index
+//! ([`SourceAttributes`]), and the `attributes` statistics weld the input
+//! again for each texture coordinate set.
 //!
 //! The derived parts are built on first use (thread-safely), because not
 //! every caller needs every part: the remesher needs the index but not the

@@ -101,12 +101,10 @@ pub const DEFAULT_MIN_EDGE_FACTOR: f64 = 1.0;
 /// projection and later deformation stay well sampled.
 pub const DEFAULT_MAX_EDGE_FRACTION: f64 = 0.05;
 
-/// Default gradation g in `h(v) ≤ h(u) + g·|uv|`: 0.3. With edges about as
-/// long as their targets, neighbouring edges then differ by at most ~30 %,
-/// well inside the 4/5–4/3 split/collapse band so the remesher does not
-/// oscillate in transitions, and transition triangles stay near-equilateral;
-/// 0.5 and above gives visibly skinny transition triangles, 0.1 spends many
-/// triangles on slow transitions.
+/// Default gradation g in `h(v) ≤ h(u) + g·|uv|`: 0.3, so neighbouring
+/// edges differ by at most about 30 %, well inside the 4/5–4/3 band, and the
+/// remesher does not oscillate in transitions. Higher and lower values:
+/// `docs/tuning.md`.
 pub const DEFAULT_GRADATION: f64 = 0.3;
 
 /// Parameters of the sizing field. All lengths are absolute, in mesh units.

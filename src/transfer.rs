@@ -32,7 +32,8 @@ use crate::trimesh::{position_key, weld_positions, TriMesh};
 /// No face across an edge: a boundary, a non-manifold edge or a seam.
 const NONE: u32 = u32::MAX;
 
-/// The most faces a walk visits before it settles for the best so far.
+/// The most faces a walk visits before it settles for the best so far
+/// (`docs/tuning.md`).
 const MAX_WALK: usize = 256;
 
 /// The input's attributes, prepared for sampling: per face corner values

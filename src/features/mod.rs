@@ -46,27 +46,14 @@ use detect::*;
 use filter::*;
 
 /// Default dihedral angle above which an interior edge is a crease, degrees.
-///
-/// 45° as in the bench and gpytoolbox, so that our feature set is the one
-/// the bench measures (fandisk: 706 edges). A CAD part's creases are far
-/// above it (fandisk's are 60°–120°, except two creases that fade out
-/// gradually and end wherever the threshold cuts them), while at 30°
-/// (MeshLab's default) scan noise on organic models already registers as
-/// hundreds of spurious creases, which would pin the remesher to the scan's
-/// triangulation.
+/// 45°, the bench's and gpytoolbox's value, so that the feature set is the
+/// one the bench measures; why neither lower nor higher: `docs/tuning.md`.
 pub const DEFAULT_FEATURE_ANGLE_DEG: f64 = 45.0;
 
 /// Default turning angle above which a valence-2 feature vertex is a corner,
 /// degrees (deviation of the two feature edges from a straight line).
-///
-/// 45° keeps the 90° corners of boxes, plates and grids, while a tessellated
-/// circle (a cylinder rim, a fillet arc) needs fewer than 8 segments before
-/// its vertices turn into corners: a 16-gon turns by 22.5°, an octagon by
-/// exactly 45°, which is not more than 45°. On fandisk every valence-2 crease
-/// vertex turns by less than 30° (its arcs by 22.5°) except one 160° hairpin,
-/// so any value in 30°–160° gives the same 25 corners; 45° sits with margin
-/// inside that range. A lower value would also pin the many 20°–40° wiggles
-/// of scanned boundaries, which the remesher should be free to coarsen.
+/// 45° keeps the 90° corners of boxes while circles tessellated with 8 or
+/// more segments stay curves; the margins on either side: `docs/tuning.md`.
 pub const DEFAULT_CORNER_ANGLE_DEG: f64 = 45.0;
 
 /// How features are detected.

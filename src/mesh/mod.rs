@@ -8,11 +8,12 @@
 //! A boundary vertex's outgoing half-edge is always its boundary half-edge,
 //! which makes "is this a boundary vertex" O(1).
 //!
-//! Removal marks elements deleted; [`Mesh::compact`] removes them and remaps
-//! handles. The topological operators and their guards are in [`edit`],
-//! construction with repair in `build.rs`, the invariant checker in
-//! `validate.rs`. The design follows the half-edge structure of OpenMesh and
-//! pmp-library (Sieger & Botsch), written anew here.
+//! Removal marks elements deleted; [`Mesh::compact`] (`compact.rs`) removes
+//! them and remaps handles. The topological operators and their guards are
+//! in [`edit`], construction with repair in `build.rs`, the invariant checker
+//! in `validate.rs`, the typed handles and per-element maps in `handles.rs`.
+//! The design follows the half-edge structure of OpenMesh and pmp-library
+//! (Sieger & Botsch), written anew here.
 
 mod build;
 mod compact;

@@ -54,10 +54,9 @@ const VALENCE_COLLAPSE_STRETCH: f64 = 1.1;
 /// [`VERY_SHORT_STRETCH`] times the split length (uniform sizing).
 const VERY_SHORT: f64 = 0.5;
 /// How far the length guard stretches for a [`VERY_SHORT`] edge (up to
-/// about 1.53 times the target): rows of short edges between long ones
-/// (anisotropic tessellations, CAD strips) cannot merge under the strict
-/// guard and would survive as needles. Left out near features, whose narrow
-/// sectors it would squeeze. Measurements: `docs/tuning.md`.
+/// about 1.53 times the target), so that rows of short edges between long
+/// ones merge instead of surviving as needles; left out near features,
+/// whose narrow sectors it would squeeze. Measurements: `docs/tuning.md`.
 const VERY_SHORT_STRETCH: f64 = 1.15;
 
 /// Collapses short edges in one sweep; returns the number of collapses.

@@ -7,16 +7,15 @@ use serde::{Deserialize, Serialize};
 use super::RemeshError;
 use crate::features::{DEFAULT_CORNER_ANGLE_DEG, DEFAULT_FEATURE_ANGLE_DEG};
 
-/// Default number of iterations (Botsch & Kobbelt use 5–10; 10 matches the bench).
+/// Default number of iterations: 10, the bench's count, at the top of the
+/// 5–10 that Botsch & Kobbelt use (`docs/tuning.md`).
 pub const DEFAULT_ITERATIONS: u32 = 10;
 /// Default number of relaxation + projection steps per iteration.
 pub const DEFAULT_RELAXATION_STEPS: u32 = 1;
 /// Default [`RemeshOptions::min_crease_length`], in target lengths: 1.5,
-/// just under two of the shortest edges the band allows (2 × 4/5), so a
-/// dropped crease is one that could carry at most one output edge and would
-/// only pin its two ends as corners. Bridges between two junctions keep
-/// their own threshold, 4/5 of the target (a box's short edge between two
-/// corners stays). Measurements behind the value: `docs/tuning.md`.
+/// just under two of the band's shortest edges (2 × 4/5), so a dropped
+/// crease could carry at most one output edge. Bridges between two
+/// junctions keep 4/5 of the target. Measurements: `docs/tuning.md`.
 pub const DEFAULT_MIN_CREASE_LENGTH: f64 = 1.5;
 /// Default gradation of adaptive sizing: h(v) ≤ h(u) + g·|uv|.
 pub const DEFAULT_GRADATION: f64 = crate::sizing::DEFAULT_GRADATION;

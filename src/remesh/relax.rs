@@ -36,7 +36,8 @@ use crate::mesh::{FaceId, Handle, VertexId};
 const MAX_HALVINGS: u32 = 5;
 /// 2·√3: quality q = 2·√3·|cross| / Σ edge².
 const SQRT_12: f64 = 3.464_101_615_137_754_6;
-/// Ring faces whose normals [`ridge_direction`] compares, at most.
+/// Ring faces whose normals [`ridge_direction`] compares, at most: the
+/// largest valence the collapses create (`docs/tuning.md`).
 const RIDGE_RING: usize = 12;
 /// Two ring face normals further apart than this (60°), as a cosine, make
 /// a vertex a ridge vertex that relaxes only along the ridge. At 40° the

@@ -95,10 +95,9 @@ pub(super) fn split_long_edges(st: &mut State) -> Result<u64, RemeshError> {
 pub(super) const DEVIATION_FACTOR: f64 = 0.25;
 
 /// Cosine of the angle (30°) between the input normals under an edge's end
-/// points below which [`split_deviating_edges`] measures the edge. A chord
-/// of length ℓ between two points whose normals differ by θ passes at most
-/// `(ℓ/2)·tan(θ/2)` from the surface, 0.18·ℓ at 30°: below
-/// [`DEVIATION_FACTOR`] for every edge the split pass leaves.
+/// points below which [`split_deviating_edges`] measures the edge: between
+/// closer normals, an edge the split pass leaves stays within 0.18 of its
+/// target of the surface, below [`DEVIATION_FACTOR`] (`docs/tuning.md`).
 const DEVIATION_NORMAL_COS: f64 = 0.866_025_403_784_438_6;
 
 /// Splits every non-feature edge whose midpoint lies farther than

@@ -22,6 +22,7 @@
 //! | [`jobs`] | job records, states, the registry |
 //! | [`queue`] | bounded queue, worker threads, running a job |
 //! | [`store`] | the data directory, atomic writes |
+//! | [`bundle`] | `bundle=zip` downloads: a result and its companion files in one archive |
 //! | [`problem`] | RFC 9457 problem details |
 //! | [`metrics`] | Prometheus counters and histogram |
 //! | [`telemetry`] | tracing setup, request ids, panic hook |

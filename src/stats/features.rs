@@ -13,15 +13,9 @@ use crate::features::{detect_features, EdgeFlags, FeatureOptions, FeatureSet};
 use crate::trimesh::TriMesh;
 
 /// A reference corner is kept when a vertex of the mesh lies within this
-/// many target lengths L of it.
-///
-/// Both tolerances are relative to L so that they hold whatever format the
-/// mesh was stored in: a format with f32 coordinates (glTF, STL) moves a
-/// vertex by up to 2^-24 of its largest coordinate (about 6e-8 of the
-/// bounding-box extent for a mesh around the origin), far below 1e-3·L for
-/// any L above 1e-4 of the extent, while a corner the remesher did not keep
-/// lies a sizeable fraction of L away. So a result gives the same counts
-/// written as OBJ, PLY, GLB or STL.
+/// many target lengths L of it. Relative to L and far above the rounding of
+/// f32 coordinates, so a result gives the same counts written in any format
+/// (`docs/tuning.md`).
 pub const CORNER_TOLERANCE: f64 = 1e-3;
 
 /// A point lies on a feature line when it is within this many target

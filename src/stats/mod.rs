@@ -16,9 +16,12 @@
 //! `edges`); every histogram carries its unit and bin edges (see
 //! `histogram`); [`Headline`] is the small block every report opens with.
 //! Submodules: `topology` (edge table), `shape` (valence, angles, quality),
-//! `edges`, `distance`, `features`, `elements` (per-element quality for the
-//! `quality_attributes` option) and `summary` (the headline and the text the
-//! command line prints).
+//! `edges`, `histogram`, `distance`, `rng` (the bench's random stream, for
+//! the distance and colour samples), `features` (with `polyline`, the
+//! distance between two edge sets), `attributes` (texture coordinates and
+//! colours), `elements` (per-element quality for the `quality_attributes`
+//! option) and `summary` (the headline and the text the command line
+//! prints).
 
 pub mod attributes;
 mod distance;

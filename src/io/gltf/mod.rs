@@ -17,13 +17,16 @@
 //! Labels: one label per material index, so primitives that share a
 //! material share a label; primitives without a material share one label
 //! without material. Primitives of one node instance that share their
-//! POSITION/NORMAL accessors share vertices, which is what [`write`] emits
-//! (one vertex array, one index accessor per label), so a round trip keeps
-//! the topology.
+//! POSITION/NORMAL accessors share vertices. [`write`] gives each primitive
+//! its own vertex range instead, copying a vertex on a material border into
+//! every primitive that uses it; the half-edge builder welds the copies
+//! again, so a round trip keeps the topology.
 //!
 //! Rooms: `access.rs` validates and reads the binary side (GLB chunks,
-//! buffers, views, accessors); this file walks the scene; `write.rs` writes
-//! a mesh back as glTF or GLB.
+//! buffers, views, accessors); `look.rs` reads and writes materials,
+//! textures, samplers and images; this file walks the scene; `write.rs`
+//! writes a mesh back as glTF or GLB, with `primitives.rs` regrouping its
+//! vertices into one compact range per primitive.
 
 use std::collections::HashMap;
 

@@ -12,11 +12,13 @@
 //! the inverse-transpose, and mirroring transforms flip the winding.
 //! Strips and fans become triangle lists; points and lines are counted in
 //! [`Imported::ignored_primitives`]. Morph targets and skins are ignored
-//! (the rest pose is read).
+//! (the rest pose is read). A mesh that several nodes use is read once,
+//! under its first node, and becomes one part of the mesh's
+//! [`crate::scene::Scene`] (see `scene.rs`).
 //!
-//! Labels: one label per material index, so primitives that share a
-//! material share a label; primitives without a material share one label
-//! without material. Primitives of one node instance that share their
+//! Labels: one label per mesh and material index, so primitives of one
+//! mesh that share a material share a label; primitives without a material
+//! share one label per mesh. Primitives of one mesh that share their
 //! POSITION/NORMAL accessors share vertices. [`write`] gives each primitive
 //! its own vertex range instead, copying a vertex on a material border into
 //! every primitive that uses it; the half-edge builder welds the copies
@@ -24,7 +26,9 @@
 //!
 //! Rooms: `access.rs` validates and reads the binary side (GLB chunks,
 //! buffers, views, accessors); `look.rs` reads and writes materials,
-//! textures, samplers and images; this file walks the scene; `write.rs`
+//! textures, samplers and images; `scene.rs` keeps the node hierarchy and
+//! the parts and maps each part back into its own space on write; this
+//! file walks the scene and reads the primitives; `write.rs`
 //! writes a mesh back as glTF or GLB, with `primitives.rs` regrouping its
 //! vertices into one compact range per primitive.
 

@@ -28,6 +28,11 @@ pub struct Part {
     /// The world matrix (column-major) the part's faces were read under;
     /// its inverse maps the remeshed faces back into the part's space.
     pub world: [f64; 16],
+    /// The world matrices of the other nodes that use the same glTF mesh:
+    /// glTF keeps the instancing, formats without it get one copy per node
+    /// ([`crate::io`] expands them).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub instances: Vec<[f64; 16]>,
 }
 
 impl Part {
@@ -38,6 +43,7 @@ impl Part {
             extras: None,
             source_mesh: None,
             world: DMat4::IDENTITY.to_cols_array(),
+            instances: Vec::new(),
         }
     }
 
@@ -60,6 +66,11 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// Whether any part is used by more than one node.
+    pub fn has_instances(&self) -> bool {
+        self.parts.iter().any(|p| !p.instances.is_empty())
+    }
+
     /// Whether a writer has structure to keep: more than one part, a named
     /// part, or a node hierarchy.
     pub fn is_structured(&self) -> bool {

@@ -503,3 +503,36 @@ fn a_part_smaller_than_its_limit_is_kept_remeshed_or_dropped() {
     let out = pipeline::run(&input, &options, &mut NoObserver).unwrap();
     assert_eq!(out.report.parts.remeshed, 1);
 }
+
+#[test]
+fn formats_without_instancing_get_one_copy_per_node() {
+    let input = furniture();
+    let loaded = pipeline::load(&input, Some("sofa.gltf"), None, &ReadOptions::default()).unwrap();
+    let options = RemeshOptions {
+        target_edge_length: Some(0.08),
+        ..Default::default()
+    };
+    let out = pipeline::run(&loaded, &options, &mut NoObserver)
+        .unwrap()
+        .mesh;
+    let obj = pipeline::encode(&out, Format::Obj).unwrap();
+    let back = io::read(&obj, Format::Obj, &ReadOptions::default())
+        .unwrap()
+        .mesh;
+    // The legs stand under the cushion (z < -0.2 in world space), at
+    // x = 1 ± 2 under the sofa's scale 2.
+    let leg_faces = |m: &TriMesh, x: f64| {
+        m.triangles
+            .iter()
+            .filter(|t| {
+                let p = m.positions[t[0] as usize];
+                p.z < -0.2 && (p.x - x).abs() < 0.6
+            })
+            .count()
+    };
+    let one_leg = leg_faces(&back, 3.0);
+    assert!(one_leg > 0, "the first leg is written");
+    assert_eq!(leg_faces(&back, -1.0), one_leg, "so is its copy");
+    assert_eq!(leg_faces(&out, -1.0), 0, "the result holds the leg once");
+    assert_eq!(back.triangles.len(), out.triangles.len() + one_leg);
+}

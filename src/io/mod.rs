@@ -20,6 +20,7 @@ pub mod companions;
 mod error;
 mod format;
 mod gltf;
+mod instances;
 mod mtl;
 mod normals;
 mod obj;
@@ -136,6 +137,14 @@ pub fn write_with_attributes(
 ) -> Result<Vec<u8>, IoError> {
     validate_write(mesh, format, attrs)?;
     let normals = opts.normals && !mesh.normals.is_empty();
+    let (mesh, attrs) = match format {
+        Format::Gltf | Format::Glb => (
+            std::borrow::Cow::Borrowed(mesh),
+            std::borrow::Cow::Borrowed(attrs),
+        ),
+        _ => instances::expand(mesh, attrs)?,
+    };
+    let (mesh, attrs) = (&*mesh, &*attrs);
     match format {
         Format::Obj => Ok(obj::write(mesh, normals, None)),
         Format::Gltf | Format::Glb => {
@@ -179,7 +188,8 @@ pub fn write_files(
     }
     validate_write(mesh, format, attrs)?;
     let normals = opts.normals && !mesh.normals.is_empty();
-    Ok(obj::write_files(mesh, normals, stem))
+    let (mesh, _) = instances::expand(mesh, attrs)?;
+    Ok(obj::write_files(&mesh, normals, stem))
 }
 
 /// The checks every writer's input passes.

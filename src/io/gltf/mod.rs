@@ -95,7 +95,7 @@ fn local_matrix(node: &json::Node) -> DMat4 {
 /// The meshes to read with their world matrices, in the document order of
 /// their nodes (the order trimesh, and so the benchmark, concatenates them),
 /// whatever the hierarchy's shape.
-fn instances(root: &json::Root, format: Format) -> Result<Vec<(usize, DMat4)>, IoError> {
+fn instances(root: &json::Root, format: Format) -> Result<Vec<Instance>, IoError> {
     let nodes = &root.nodes;
     let roots: Vec<usize> = if let Some(s) = root
         .scene
@@ -116,7 +116,11 @@ fn instances(root: &json::Root, format: Format) -> Result<Vec<(usize, DMat4)>, I
         (0..nodes.len()).filter(|&i| !is_child[i]).collect()
     } else {
         return Ok((0..root.meshes.len())
-            .map(|m| (m, DMat4::IDENTITY))
+            .map(|m| Instance {
+                mesh: m,
+                world: DMat4::IDENTITY,
+                others: Vec::new(),
+            })
             .collect());
     };
     let mut visited = vec![false; nodes.len()];
@@ -147,14 +151,33 @@ fn instances(root: &json::Root, format: Format) -> Result<Vec<(usize, DMat4)>, I
         }
     }
     // Each node is visited once, so node indices are unique keys. A mesh
-    // that several nodes use is read once, under its first node.
+    // that several nodes use is read once, under its first node; the other
+    // nodes' matrices go with it.
     out.sort_unstable_by_key(|&(n, _, _)| n);
-    let mut seen = vec![false; root.meshes.len()];
-    Ok(out
-        .into_iter()
-        .filter(|&(_, m, _)| !std::mem::replace(&mut seen[m], true))
-        .map(|(_, m, w)| (m, w))
-        .collect())
+    let mut first: Vec<Option<usize>> = vec![None; root.meshes.len()];
+    let mut read: Vec<Instance> = Vec::new();
+    for (_, m, w) in out {
+        match first[m] {
+            Some(i) => read[i].others.push(w),
+            None => {
+                first[m] = Some(read.len());
+                read.push(Instance {
+                    mesh: m,
+                    world: w,
+                    others: Vec::new(),
+                });
+            }
+        }
+    }
+    Ok(read)
+}
+
+/// A mesh to read: under the world matrix of its first node, with those
+/// of the other nodes that use it.
+struct Instance {
+    mesh: usize,
+    world: DMat4,
+    others: Vec<DMat4>,
 }
 
 pub(super) fn read(bytes: &[u8], format: Format, opts: &ReadOptions) -> Result<Imported, IoError> {
@@ -222,8 +245,9 @@ pub(super) fn read(bytes: &[u8], format: Format, opts: &ReadOptions) -> Result<I
     type VertexKey = (usize, usize, Option<usize>, Vec<usize>, Option<usize>);
     let mut shared: HashMap<VertexKey, (u32, u32)> = HashMap::new();
     let mut scratch: Vec<f64> = Vec::new();
-    for (instance, &(m, world)) in instances.iter().enumerate() {
-        parts.push(raw_scene.part(m, world));
+    for (instance, read) in instances.iter().enumerate() {
+        let (m, world) = (read.mesh, read.world);
+        parts.push(raw_scene.part(m, world, &read.others));
         let det = world.determinant();
         let normal_matrix = if det.abs() > 1e-300 {
             DMat3::from_mat4(world).inverse().transpose()

@@ -48,13 +48,14 @@ impl RawScene {
     }
 
     /// The part for mesh `m` read under `world`.
-    pub(super) fn part(&self, m: usize, world: DMat4) -> Part {
+    pub(super) fn part(&self, m: usize, world: DMat4, others: &[DMat4]) -> Part {
         let head = self.meshes.get(m);
         Part {
             name: head.and_then(|h| h.name.clone()),
             extras: head.and_then(|h| h.extras.clone()),
             source_mesh: Some(m as u32),
             world: world.to_cols_array(),
+            instances: others.iter().map(DMat4::to_cols_array).collect(),
         }
     }
 
@@ -74,7 +75,7 @@ impl RawScene {
             dropped.push(DroppedAttribute {
                 name: "scene".into(),
                 reason: "a node's transform is singular, so its mesh cannot be mapped back: \
-                         the result is one mesh in world space"
+                         the result is one mesh in world space, each shared mesh once"
                     .into(),
             });
             return None;

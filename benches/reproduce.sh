@@ -183,6 +183,8 @@ usage: benches/reproduce.sh <name> [arguments]
                                coordinates add
   noise-creases                smallest angles and crease-sample distances of ours and
                                gpytoolbox on igea, the bunny and camelhead
+  hard-edges [PEERS.PY OPTIONS] ours with --features angle, normals and both on the
+                               product files, the Duck and 2CylinderEngine
   engine [PEERS.PY OPTIONS]    2CylinderEngine: every tool, the builder's repairs, the
                                welded topology, and the rod of tests/remesh_anisotropic.rs
 
@@ -204,6 +206,17 @@ products)
     build_release
     python3 "$SHARED/bench/peers.py" "$MESHES/products" --tools '' \
         --ours "target/release/isoremesh $OURS_ARGS" "$@"
+    ;;
+hard-edges)
+    # Creases from the dihedral angle, from the input's normals, and both,
+    # on the glTF files (the formats that carry authored normals).
+    build_release
+    for fs in angle normals both; do
+        echo "## features: $fs"
+        python3 "$SHARED/bench/peers.py" "$MESHES/products" "$MESHES/gltf/Duck.glb" \
+            "$MESHES/gltf/2CylinderEngine.glb" --tools '' \
+            --ours "target/release/isoremesh $OURS_ARGS --features $fs" "$@"
+    done
     ;;
 headline | textured)
     build_release

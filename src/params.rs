@@ -10,12 +10,13 @@ use serde::{Deserialize, Serialize};
 use crate::features::DEFAULT_FEATURE_ANGLE_DEG;
 use crate::io::Format;
 use crate::remesh::{
-    RemeshError, RemeshOptions, Sizing, SmallParts, DEFAULT_GRADATION, DEFAULT_ITERATIONS,
-    DEFAULT_MIN_CREASE_LENGTH, DEFAULT_RELAXATION_STEPS, DEFAULT_SMALL_PART_SIZE,
+    FeatureSource, RemeshError, RemeshOptions, Sizing, SmallParts, DEFAULT_GRADATION,
+    DEFAULT_ITERATIONS, DEFAULT_MIN_CREASE_LENGTH, DEFAULT_RELAXATION_STEPS,
+    DEFAULT_SMALL_PART_SIZE,
 };
 
 /// Every parameter name, in the order of [`Params`]' fields.
-pub const PARAM_NAMES: [&str; 19] = [
+pub const PARAM_NAMES: [&str; 20] = [
     "target_edge_length",
     "target_edge_ratio",
     "target_faces",
@@ -23,6 +24,7 @@ pub const PARAM_NAMES: [&str; 19] = [
     "relaxation_steps",
     "preserve_features",
     "feature_angle",
+    "features",
     "min_crease_length",
     "sizing",
     "refine_curved",
@@ -64,6 +66,11 @@ pub struct Params {
     /// Dihedral angle in degrees above which an edge is a sharp feature.
     #[arg(long, default_value_t = DEFAULT_FEATURE_ANGLE_DEG)]
     pub feature_angle: f64,
+    /// Where creases come from: `angle` (dihedral angle above
+    /// feature_angle), `normals` (hard edges authored into the input's
+    /// normals) or `both`.
+    #[arg(long, default_value_t = FeatureSource::Angle)]
+    pub features: FeatureSource,
     /// Drop creases smaller than this many target lengths: isolated crease
     /// fragments, short chains between free ends and junctions, and turns
     /// that only wiggle next to another corner (0 keeps all).
@@ -123,6 +130,7 @@ impl Default for Params {
             relaxation_steps: o.relaxation_steps,
             preserve_features: o.preserve_features,
             feature_angle: o.feature_angle,
+            features: o.features,
             min_crease_length: o.min_crease_length,
             sizing: o.sizing,
             refine_curved: o.refine_curved,
@@ -163,6 +171,7 @@ impl Params {
             relaxation_steps: self.relaxation_steps,
             preserve_features: self.preserve_features,
             feature_angle: self.feature_angle,
+            features: self.features,
             min_crease_length: self.min_crease_length,
             sizing: self.sizing,
             refine_curved: self.refine_curved,

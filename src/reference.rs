@@ -32,6 +32,7 @@ pub struct Reference {
     welded: OnceLock<(TriMesh, Vec<u32>)>,
     attributes: OnceLock<Option<Arc<SourceAttributes>>>,
     seams: OnceLock<Vec<[u32; 2]>>,
+    hard_edges: OnceLock<Vec<[u32; 2]>>,
     mean_edge: OnceLock<f64>,
     /// The last measured feature set and the options it was detected with:
     /// a job measures the input and the output's fidelity with one set of
@@ -74,6 +75,7 @@ impl Reference {
             welded: OnceLock::new(),
             attributes: OnceLock::new(),
             seams: OnceLock::new(),
+            hard_edges: OnceLock::new(),
             mean_edge: OnceLock::new(),
             features: Mutex::new(None),
         }
@@ -128,6 +130,13 @@ impl Reference {
             self.source_attributes()
                 .map_or_else(Vec::new, |a| a.seams_on(self.surface()))
         })
+    }
+
+    /// The hard edges authored into the source's normals, as vertex pairs
+    /// of [`Self::surface`] (see [`crate::features::normals`]).
+    pub fn surface_hard_edges(&self) -> &[[u32; 2]] {
+        self.hard_edges
+            .get_or_init(|| crate::features::normals::hard_edges(&self.source, self.surface()))
     }
 
     /// The features of the welded view detected with `opts`, detected once

@@ -173,3 +173,88 @@ fn line_vertices_are_fixed_only_where_a_chord_would_cut_the_turn() {
     let (_, out) = run_cylinder(480);
     assert_eq!(out.report.fixed_turns, 0);
 }
+
+/// A gable roof folded by 20° along y = 0 (far below the 45° feature
+/// angle), its vertices split along the ridge with one normal per slope:
+/// an authored hard edge.
+fn shallow_gable() -> TriMesh {
+    let n = 12;
+    let tilt = 10f64.to_radians();
+    let mut m = TriMesh::default();
+    for side in [-1.0f64, 1.0] {
+        let base = m.positions.len() as u32;
+        let normal = DVec3::new(0.0, -side * tilt.sin(), tilt.cos());
+        for i in 0..=n {
+            for j in 0..=n {
+                let x = i as f64 / n as f64;
+                let s = side * j as f64 / n as f64;
+                m.positions
+                    .push(DVec3::new(x, s * tilt.cos(), -s.abs() * tilt.sin()));
+                m.normals.push(normal);
+            }
+        }
+        for i in 0..n as u32 {
+            for j in 0..n as u32 {
+                let v = |a: u32, b: u32| base + a * (n as u32 + 1) + b;
+                let (a, b, c, d) = (v(i, j), v(i + 1, j), v(i + 1, j + 1), v(i, j + 1));
+                if side > 0.0 {
+                    m.triangles.extend([[a, b, c], [a, c, d]]);
+                } else {
+                    m.triangles.extend([[a, c, b], [a, d, c]]);
+                }
+            }
+        }
+    }
+    m
+}
+
+#[test]
+fn authored_hard_edges_are_features_when_asked() {
+    use isoremesh::reference::Reference;
+    use isoremesh::remesh::{remesh_reference, FeatureSource};
+    let source = shallow_gable();
+    for (features, kept) in [
+        (FeatureSource::Angle, false),
+        (FeatureSource::Normals, true),
+        (FeatureSource::Both, true),
+    ] {
+        let reference = Reference::new(source.clone()).unwrap();
+        let options = RemeshOptions {
+            target_edge_length: Some(0.07),
+            features,
+            ..Default::default()
+        };
+        let out = remesh_reference(&reference, &options, &mut NoObserver).unwrap();
+        // The ridge (y = 0) carries output vertices exactly when it is kept.
+        let tm = out.mesh.to_trimesh();
+        let on_ridge = tm
+            .positions
+            .iter()
+            .filter(|p| p.y.abs() < 1e-12 && p.z.abs() < 1e-12 && p.x > 0.01 && p.x < 0.99)
+            .count();
+        assert_eq!(
+            on_ridge >= 10,
+            kept,
+            "{features}: {on_ridge} vertices on the ridge"
+        );
+        // The ridge's ends are on the boundary, so only the ridge counts.
+        let ridge_edges =
+            out.report.feature_edges - detect_boundary_edge_count(&reference.mesh.to_trimesh());
+        assert_eq!(
+            ridge_edges > 0,
+            kept,
+            "{features}: {ridge_edges} ridge edges"
+        );
+    }
+}
+
+fn detect_boundary_edge_count(m: &TriMesh) -> u64 {
+    let fs = detect_features(
+        m,
+        &FeatureOptions {
+            preserve_features: false,
+            ..Default::default()
+        },
+    );
+    fs.edges().len() as u64
+}

@@ -27,7 +27,8 @@
 //! The module's rooms: `anchors.rs` holds the remesher's policy of which
 //! vertices stay fixed, `detect.rs` classifies edges and walks the feature
 //! graph into lines, `filter.rs` drops the creases too small to keep,
-//! `lines.rs` answers closest-point queries on one line (its segment tree).
+//! `lines.rs` answers closest-point queries on one line (its segment tree),
+//! `normals.rs` finds the hard edges authored into an input's normals.
 //! How well an output keeps the input's features is measured in
 //! [`crate::stats::polyline`].
 
@@ -41,6 +42,7 @@ pub(crate) mod anchors;
 mod detect;
 mod filter;
 mod lines;
+pub mod normals;
 
 use detect::*;
 use filter::*;

@@ -31,9 +31,9 @@ mod split;
 mod state;
 
 pub use options::{
-    estimated_faces, RemeshOptions, Sizing, SmallParts, DEFAULT_GRADATION, DEFAULT_ITERATIONS,
-    DEFAULT_MAX_OUTPUT_FACES, DEFAULT_MIN_CREASE_LENGTH, DEFAULT_RELAXATION_STEPS,
-    DEFAULT_SMALL_PART_SIZE,
+    estimated_faces, FeatureSource, RemeshOptions, Sizing, SmallParts, DEFAULT_GRADATION,
+    DEFAULT_ITERATIONS, DEFAULT_MAX_OUTPUT_FACES, DEFAULT_MIN_CREASE_LENGTH,
+    DEFAULT_RELAXATION_STEPS, DEFAULT_SMALL_PART_SIZE,
 };
 pub use parts::PartsReport;
 

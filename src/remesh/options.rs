@@ -110,6 +110,48 @@ impl std::str::FromStr for SmallParts {
     }
 }
 
+/// Which edges of the input are sharp features (besides boundaries,
+/// material borders and attribute seams, which always are).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FeatureSource {
+    /// Edges whose dihedral angle exceeds the feature angle.
+    #[default]
+    Angle,
+    /// The hard edges authored into the input's normals (an edge across
+    /// which the normals differ); the dihedral angle where the input has
+    /// no normals, or is shaded flat.
+    Normals,
+    /// Both: the dihedral-angle creases and the authored hard edges.
+    Both,
+}
+
+impl std::fmt::Display for FeatureSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            FeatureSource::Angle => "angle",
+            FeatureSource::Normals => "normals",
+            FeatureSource::Both => "both",
+        })
+    }
+}
+
+impl std::str::FromStr for FeatureSource {
+    type Err = String;
+
+    /// Parses `angle`, `normals` or `both`, case-insensitively.
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.to_ascii_lowercase().as_str() {
+            "angle" => Ok(FeatureSource::Angle),
+            "normals" => Ok(FeatureSource::Normals),
+            "both" => Ok(FeatureSource::Both),
+            _ => Err(format!(
+                "{s:?} is not a feature source; use angle, normals or both"
+            )),
+        }
+    }
+}
+
 /// Options of [`super::remesh`]. Construct with `Default` and the `with_*`
 /// builders, or fill the public fields; [`RemeshOptions::validate`] runs
 /// before any work.
@@ -146,6 +188,9 @@ pub struct RemeshOptions {
     /// Dihedral angle in degrees above which an edge is a sharp feature.
     /// Default 45° (see [`crate::features::DEFAULT_FEATURE_ANGLE_DEG`]).
     pub feature_angle: f64,
+    /// Where sharp features come from: the dihedral angle, the hard edges
+    /// of the input's normals, or both. Default [`FeatureSource::Angle`].
+    pub features: FeatureSource,
     /// Turning angle in degrees above which a feature-line vertex is a corner.
     pub corner_angle: f64,
     /// Creases smaller than this many target lengths are dropped (see
@@ -212,6 +257,7 @@ impl Default for RemeshOptions {
             project: true,
             preserve_features: true,
             feature_angle: DEFAULT_FEATURE_ANGLE_DEG,
+            features: FeatureSource::Angle,
             corner_angle: DEFAULT_CORNER_ANGLE_DEG,
             min_crease_length: DEFAULT_MIN_CREASE_LENGTH,
             sizing: Sizing::Uniform,

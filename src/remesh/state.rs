@@ -15,7 +15,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::parts::PartsReport;
-use super::{Cancel, RemeshError, RemeshOptions, Sizing};
+use super::{Cancel, FeatureSource, RemeshError, RemeshOptions, Sizing};
 use crate::bvh::SurfaceIndex;
 use crate::curvature;
 use crate::features::anchors::{anchor_tips, anchor_turns, Neighborhood};
@@ -156,6 +156,25 @@ impl<'c> State<'c> {
         // The spatial index and the input's face adjacency need nothing of
         // the features or the sizing, so they are built beside them: the BVH
         // build is serial, and the other side's loops fill the second core.
+        // Authored hard edges join the attribute seams as features that no
+        // crease filter drops; `normals` alone turns the dihedral test off
+        // where the input has hard edges to go by.
+        let hard = if options.preserve_features && options.features != FeatureSource::Angle {
+            input.surface_hard_edges()
+        } else {
+            &[]
+        };
+        let seams: std::borrow::Cow<[[u32; 2]]> = if hard.is_empty() {
+            std::borrow::Cow::Borrowed(input.surface_seams())
+        } else {
+            std::borrow::Cow::Owned([input.surface_seams(), hard].concat())
+        };
+        let normals_only = options.features == FeatureSource::Normals && !hard.is_empty();
+        let feature_options = normals_only.then(|| RemeshOptions {
+            feature_angle: 180.0,
+            ..options.clone()
+        });
+        let feature_options = feature_options.as_ref().unwrap_or(options);
         let ((index, (vertex_face_start, vertex_faces), face_neighbors), reference) = rayon::join(
             || {
                 let index = Arc::clone(input.index());
@@ -167,8 +186,8 @@ impl<'c> State<'c> {
                 Derived::build(
                     &mesh,
                     tm,
-                    input.surface_seams(),
-                    options,
+                    &seams,
+                    feature_options,
                     Scale {
                         uniform_l,
                         diag,

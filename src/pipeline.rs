@@ -227,6 +227,22 @@ pub fn measure(input: &LoadedInput, remeshed: &Remeshed, options: &RemeshOptions
             ..Default::default()
         },
     );
+    let mut output_stats = output_stats;
+    if let Some(e) = output_stats.edge_length.as_mut() {
+        // Against L under uniform sizing, as the band itself.
+        let uniform;
+        let target = if adaptive {
+            &out.vertex_target
+        } else {
+            uniform = vec![l; out.mesh.vertex_capacity()];
+            &uniform
+        };
+        e.split = Some(stats::forced::band_split(
+            &out.mesh,
+            target,
+            options.corner_angle,
+        ));
+    }
     let attributes = stats::attributes::compute(
         &input.source,
         input.source_attributes().map(|a| &**a),

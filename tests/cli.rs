@@ -130,6 +130,7 @@ fn s_headline_of(out: &serde_json::Value) -> serde_json::Value {
             "band": e["band"],
             "within_band": e["within_band"],
             "histogram": e["histogram"],
+            "split": e["split"],
         },
         "valence": {
             "mean_abs_deviation": v["mean_abs_deviation"],

@@ -482,6 +482,18 @@ fn a_part_smaller_than_its_limit_is_kept_remeshed_or_dropped() {
                 got.sort_unstable();
                 want.sort_unstable();
                 assert_eq!(got, want, "kept vertices are the input's");
+                // Its edges are the input's: forced, counted apart.
+                let split = out
+                    .stats
+                    .output
+                    .edge_length
+                    .as_ref()
+                    .unwrap()
+                    .split
+                    .unwrap();
+                assert_eq!(split.forced_edges as usize, bead.triangles.len() * 3 / 2);
+                assert_eq!(split.forced_within_band, 0.0);
+                assert!(split.free_within_band > 0.9);
             }
             SmallParts::Remesh => {
                 assert_eq!((parts.kept, parts.remeshed, parts.dropped), (0, 2, 0));

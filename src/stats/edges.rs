@@ -70,6 +70,11 @@ pub struct EdgeLengthStats {
     /// `target_length` when an explicit target was also given).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub against_mean_target: Option<EdgeLengthView>,
+    /// A remesh output's band split into the edges the input forces
+    /// (features too short for the band, kept small parts) and the free
+    /// ones (see [`super::forced`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub split: Option<super::forced::BandSplit>,
 }
 
 /// Per-edge figures of one chunk.
@@ -214,5 +219,6 @@ pub(super) fn edge_length_stats(
         within_band: main.within_band,
         histogram: main.histogram,
         against_mean_target,
+        split: None,
     })
 }

@@ -28,6 +28,7 @@ mod distance;
 mod edges;
 mod elements;
 mod features;
+pub mod forced;
 mod histogram;
 pub mod polyline;
 mod rng;

@@ -25,6 +25,10 @@ pub struct EdgeHeadline {
     pub within_band: f64,
     /// The edge-length histogram against the reference.
     pub histogram: Histogram,
+    /// A remesh output's band over free and forced edges (see
+    /// [`super::forced`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub split: Option<super::forced::BandSplit>,
 }
 
 /// The valence half of the headline.
@@ -65,6 +69,16 @@ impl Headline {
                 e.band.lower,
                 e.band.upper,
             );
+            if let Some(sp) = &e.split {
+                let _ = writeln!(
+                    s,
+                    "          free edges {:.1}% in the band ({}); edges the input forces {:.1}% ({})",
+                    100.0 * sp.free_within_band,
+                    sp.free_edges,
+                    100.0 * sp.forced_within_band,
+                    sp.forced_edges,
+                );
+            }
             let h = &e.histogram;
             let last = h.bin_edges.last().copied().unwrap_or(0.0);
             let counts: Vec<String> = h.counts.iter().map(u64::to_string).collect();
@@ -104,6 +118,7 @@ impl MeshStats {
                 band: e.band.clone(),
                 within_band: e.within_band,
                 histogram: e.histogram.clone(),
+                split: e.split,
             }),
             valence: ValenceHeadline {
                 mean_abs_deviation: self.valence.mean_abs_deviation,

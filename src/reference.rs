@@ -4,8 +4,8 @@
 //! once; the remesher and the statistics both read it, so the input's
 //! geometry is parsed, repaired, welded, indexed and detected once. Texture
 //! coordinates and colours add their own weld and index
-//! ([`SourceAttributes`]), and the `attributes` statistics weld the input
-//! again for each texture coordinate set.
+//! ([`SourceAttributes`]: its faces keep the source's attribute corners),
+//! and the `attributes` statistics weld the input once more.
 //!
 //! The derived parts are built on first use (thread-safely), because not
 //! every caller needs every part: the remesher needs the index but not the

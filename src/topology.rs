@@ -94,6 +94,14 @@ impl<T> Csr<T> {
     }
 }
 
+/// The key of the undirected edge `a`–`b`: the smaller index in the high
+/// half, so that both orders give the same key and keys sort by their
+/// first vertex.
+#[inline]
+pub fn edge_key(a: u32, b: u32) -> u64 {
+    (u64::from(a.min(b)) << 32) | u64::from(a.max(b))
+}
+
 /// Is `t` a face with three in-range, distinct corners?
 #[inline]
 pub fn is_proper(t: &[u32; 3], vertex_count: usize) -> bool {
@@ -139,6 +147,26 @@ impl EdgeTable {
             }
         }
     }
+}
+
+/// Per triangle `[a, b, c]`, the triangles across its edges `ab`, `bc`
+/// and `ca`, or `u32::MAX` where there is none (a boundary); across a
+/// non-manifold edge, the lowest-numbered other triangle on it.
+pub fn face_neighbors(triangles: &[[u32; 3]], vertex_count: usize) -> Vec<[u32; 3]> {
+    let mut nb = vec![[u32::MAX; 3]; triangles.len()];
+    EdgeTable::new(triangles, vertex_count).for_each(|_, _, run| {
+        if run.len() < 2 {
+            return;
+        }
+        // A run is in half-edge order, so in face order.
+        for &(_, h) in run {
+            let f = h / 3;
+            if let Some(&(_, g)) = run.iter().find(|&&(_, g)| g / 3 != f) {
+                nb[f as usize][(h % 3) as usize] = g / 3;
+            }
+        }
+    });
+    nb
 }
 
 /// Groups the corners of `triangles` (corner `3·face + k`) into fans: the
@@ -263,5 +291,30 @@ mod tests {
         uf.union(1, 0);
         assert_eq!(uf.find(5), 3);
         assert_eq!(uf.into_roots(), vec![0, 0, 2, 3, 3, 3]);
+    }
+
+    #[test]
+    fn face_neighbors_cross_the_named_edge() {
+        for (tm, open) in [
+            (crate::shapes::icosphere(2), false),
+            (crate::shapes::grid(1.0, 6), true),
+        ] {
+            let nb = face_neighbors(&tm.triangles, tm.positions.len());
+            let mut missing = 0;
+            for (f, t) in tm.triangles.iter().enumerate() {
+                for k in 0..3 {
+                    let (a, b) = (t[k], t[(k + 1) % 3]);
+                    let g = nb[f][k];
+                    if g == u32::MAX {
+                        missing += 1;
+                        continue;
+                    }
+                    let u = tm.triangles[g as usize];
+                    assert_ne!(g as usize, f);
+                    assert!((0..3).any(|j| u[j] == b && u[(j + 1) % 3] == a));
+                }
+            }
+            assert_eq!(missing > 0, open);
+        }
     }
 }

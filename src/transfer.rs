@@ -187,11 +187,11 @@ impl SourceAttributes {
         let nc = tris.len() * 3;
         let mut seam_keys: Vec<u64> = out_seams
             .iter()
-            .map(|&[a, b]| (u64::from(a.min(b)) << 32) | u64::from(a.max(b)))
+            .map(|&[a, b]| crate::topology::edge_key(a, b))
             .collect();
         seam_keys.sort_unstable();
         let wedges = corner_fans(tris, out.positions.len(), |a, b, _| {
-            let key = (u64::from(a) << 32) | u64::from(b);
+            let key = crate::topology::edge_key(a, b);
             seam_keys.binary_search(&key).is_err()
         });
         let roots = wedges.into_roots();

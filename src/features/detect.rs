@@ -91,7 +91,7 @@ pub(crate) fn classify_edges(
     let table = EdgeTable::new(&mesh.triangles, mesh.positions.len());
     let mut seam_keys: Vec<u64> = seams
         .iter()
-        .map(|&[a, b]| (u64::from(a.min(b)) << 32) | u64::from(a.max(b)))
+        .map(|&[a, b]| crate::topology::edge_key(a, b))
         .collect();
     seam_keys.sort_unstable();
     let normals: Vec<DVec3> = if preserve_features {
@@ -132,7 +132,7 @@ pub(crate) fn classify_edges(
         }
         if !seam_keys.is_empty()
             && seam_keys
-                .binary_search(&((u64::from(a) << 32) | u64::from(b)))
+                .binary_search(&crate::topology::edge_key(a, b))
                 .is_ok()
         {
             fl |= EdgeFlags::SEAM;

@@ -20,12 +20,8 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::geometry::{triangle_angles, triangle_cross};
+use crate::topology::edge_key;
 use crate::TriMesh;
-
-fn edge_key(a: u32, b: u32) -> u64 {
-    let (lo, hi) = if a < b { (a, b) } else { (b, a) };
-    (u64::from(lo) << 32) | u64::from(hi)
-}
 
 /// Returns a copy of `mesh` whose vertices are duplicated per smooth fan and
 /// whose `normals` hold one unit normal per vertex.

@@ -170,9 +170,9 @@ pub struct IterationReport {
     pub project_moves_limited: u64,
     /// Faces at the end of the iteration.
     pub faces: u64,
-    /// Seconds per pass in this iteration (`prepare` is 0; the final sliver
-    /// repair after the last iteration counts only in the report's
-    /// [`RemeshReport::seconds`], under `flip`).
+    /// Seconds per pass in this iteration (`prepare` and `repair` are 0:
+    /// they run before the first and after the last iteration, and count
+    /// only in the report's [`RemeshReport::seconds`]).
     #[serde(default)]
     pub seconds: PassTimes,
 }
@@ -193,6 +193,10 @@ pub struct PassTimes {
     pub relax: f64,
     /// Projection.
     pub project: f64,
+    /// The sliver repair after the last iteration (0 in every iteration's
+    /// own times).
+    #[serde(default)]
+    pub repair: f64,
 }
 
 impl PassTimes {
@@ -205,6 +209,7 @@ impl PassTimes {
             flip: self.flip - earlier.flip,
             relax: self.relax - earlier.relax,
             project: self.project - earlier.project,
+            repair: self.repair - earlier.repair,
         }
     }
 }
@@ -358,7 +363,7 @@ fn run(
         // fraction stays monotone.
         cancel.now()?;
         (report.repair_flips, report.repair_moves) =
-            timed(&mut report.seconds.flip, || repair::final_repair(&mut st))?;
+            timed(&mut report.seconds.repair, || repair::final_repair(&mut st))?;
     }
     let (mesh, vertex_target) = st.finish();
     mesh.validate()

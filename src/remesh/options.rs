@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use super::RemeshError;
 use crate::features::{DEFAULT_CORNER_ANGLE_DEG, DEFAULT_FEATURE_ANGLE_DEG};
+use crate::sizing::SizingOptions;
 
 /// Default number of iterations: 10, the bench's count, at the top of the
 /// 5–10 that Botsch & Kobbelt use (`docs/tuning.md`).
@@ -327,6 +328,23 @@ impl RemeshOptions {
                 .unwrap_or(crate::sizing::DEFAULT_RELATIVE_TOLERANCE)
                 * diagonal
         })
+    }
+
+    /// The size-field options of adaptive sizing for an input of bounding-box
+    /// `diagonal`: the tolerance's defaults ([`SizingOptions::for_tolerance`])
+    /// with the caller's bounds and gradation. The engine builds its field
+    /// from them, and the service's estimate takes their smallest target.
+    pub fn adaptive_sizing(&self, diagonal: f64) -> SizingOptions {
+        let mut so = SizingOptions::for_tolerance(self.tolerance_for(diagonal), diagonal);
+        if let Some(a) = self.min_edge_length {
+            so.min_edge_length = a;
+        }
+        if let Some(b) = self.max_edge_length {
+            so.max_edge_length = b;
+        }
+        so.max_edge_length = so.max_edge_length.max(so.min_edge_length);
+        so.gradation = self.gradation;
+        so
     }
 
     /// Sets an absolute target edge length.

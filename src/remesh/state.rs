@@ -179,7 +179,7 @@ impl<'c> State<'c> {
             || {
                 let index = Arc::clone(input.index());
                 let csr = vertex_face_csr(tm);
-                let neighbors = face_neighbors(tm, &csr.0, &csr.1);
+                let neighbors = crate::topology::face_neighbors(&tm.triangles, tm.positions.len());
                 (index, csr, neighbors)
             },
             || {
@@ -207,7 +207,7 @@ impl<'c> State<'c> {
         } = reference?;
         cancel.now()?;
         let mut kind = kind;
-        let unit = uniform_l.unwrap_or_else(|| adaptive_options(options, diag).min_edge_length);
+        let unit = uniform_l.unwrap_or_else(|| options.adaptive_sizing(diag).min_edge_length);
         let parts = super::parts::apply(&mut mesh, &mut kind, unit, options);
         let nv = mesh.vertex_capacity();
         let mut hint_face = vec![0u32; nv];
@@ -431,7 +431,7 @@ impl Derived {
             area,
         } = scale;
         // The unit of min_crease_length: L, or the smallest adaptive target.
-        let unit = uniform_l.unwrap_or_else(|| adaptive_options(options, diag).min_edge_length);
+        let unit = uniform_l.unwrap_or_else(|| options.adaptive_sizing(diag).min_edge_length);
         let features = detect_features_with_seams(
             tm,
             &FeatureOptions {
@@ -471,7 +471,7 @@ impl Derived {
                 }
             }
             Sizing::Adaptive => {
-                let so = adaptive_options(options, diag);
+                let so = options.adaptive_sizing(diag);
                 let field = SizingField::from_mesh(
                     tm,
                     &so,
@@ -537,29 +537,6 @@ fn vertex_face_csr(tm: &TriMesh) -> (Vec<u32>, Vec<u32>) {
     .into_parts()
 }
 
-/// The faces across the three edges of every input face (see
-/// [`State::face_neighbors`]), found through the vertex-face lists.
-fn face_neighbors(tm: &TriMesh, start: &[u32], faces: &[u32]) -> Vec<[u32; 3]> {
-    tm.triangles
-        .par_iter()
-        .enumerate()
-        .map(|(f, t)| {
-            let mut nb = [u32::MAX; 3];
-            for (k, slot) in nb.iter_mut().enumerate() {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                let ring = &faces[start[a as usize] as usize..start[a as usize + 1] as usize];
-                if let Some(&g) = ring
-                    .iter()
-                    .find(|&&g| g as usize != f && tm.triangles[g as usize].contains(&b))
-                {
-                    *slot = g;
-                }
-            }
-            nb
-        })
-        .collect()
-}
-
 /// The part of every input face (see [`State::face_part`]): faces joined
 /// across their shared edges, across label borders too unless
 /// `split_labels`; `None` when there is one part.
@@ -593,8 +570,6 @@ impl State<'_> {
     }
 }
 
-/// The sizing options of adaptive sizing: the tolerance's defaults with the
-/// caller's bounds and gradation.
 /// The input's scale as preparation measured it.
 struct Scale {
     /// The target under uniform sizing (already checked against the
@@ -604,19 +579,6 @@ struct Scale {
     diag: f64,
     /// The surface area.
     area: f64,
-}
-
-fn adaptive_options(options: &RemeshOptions, diag: f64) -> SizingOptions {
-    let mut so = SizingOptions::for_tolerance(options.tolerance_for(diag), diag);
-    if let Some(a) = options.min_edge_length {
-        so.min_edge_length = a;
-    }
-    if let Some(b) = options.max_edge_length {
-        so.max_edge_length = b;
-    }
-    so.max_edge_length = so.max_edge_length.max(so.min_edge_length);
-    so.gradation = options.gradation;
-    so
 }
 
 fn check_estimate(area: f64, l: f64, limit: u64) -> Result<(), RemeshError> {
@@ -663,31 +625,5 @@ mod tests {
         assert_eq!(morton3(max, 0, 0), 0x1249_2492_4924_9249);
         // Order along x alone is kept.
         assert!(morton3(5, 7, 2) < morton3(6, 7, 2));
-    }
-
-    #[test]
-    fn face_neighbors_cross_the_named_edge() {
-        for (tm, open) in [
-            (crate::shapes::icosphere(2), false),
-            (crate::shapes::grid(1.0, 6), true),
-        ] {
-            let (start, faces) = vertex_face_csr(&tm);
-            let nb = face_neighbors(&tm, &start, &faces);
-            let mut missing = 0;
-            for (f, t) in tm.triangles.iter().enumerate() {
-                for k in 0..3 {
-                    let (a, b) = (t[k], t[(k + 1) % 3]);
-                    let g = nb[f][k];
-                    if g == u32::MAX {
-                        missing += 1;
-                        continue;
-                    }
-                    let u = tm.triangles[g as usize];
-                    assert_ne!(g as usize, f);
-                    assert!((0..3).any(|j| u[j] == b && u[(j + 1) % 3] == a));
-                }
-            }
-            assert_eq!(missing > 0, open);
-        }
     }
 }

@@ -10,7 +10,6 @@ use serde_json::{Map, Value};
 use super::problem::{Problem, ProblemKind};
 use crate::params::{Params, PARAM_NAMES};
 use crate::remesh::{estimated_faces, RemeshError, RemeshOptions, Sizing};
-use crate::sizing::DEFAULT_MIN_EDGE_FACTOR;
 
 /// The largest `params` part, or query string of parameters: every
 /// parameter fits in a few hundred bytes, so anything near this is not a
@@ -222,13 +221,14 @@ pub struct Estimate {
 pub fn estimate_output(g: &InputGeometry, o: &RemeshOptions) -> Estimate {
     let (l, field) = match o.sizing {
         Sizing::Uniform => o.uniform_target(g.bbox_diagonal, g.area, || g.mean_edge_length),
-        Sizing::Adaptive => match o.min_edge_length {
-            Some(a) => (a, "min_edge_length"),
-            None => (
-                DEFAULT_MIN_EDGE_FACTOR * o.tolerance_for(g.bbox_diagonal),
-                "tolerance",
-            ),
-        },
+        Sizing::Adaptive => (
+            o.adaptive_sizing(g.bbox_diagonal).min_edge_length,
+            if o.min_edge_length.is_some() {
+                "min_edge_length"
+            } else {
+                "tolerance"
+            },
+        ),
     };
     let est = estimated_faces(g.area, l);
     let triangles = if est.is_finite() && est >= 0.0 {
@@ -248,6 +248,7 @@ pub fn estimate_output(g: &InputGeometry, o: &RemeshOptions) -> Estimate {
 mod tests {
     use super::*;
     use crate::io::Format;
+    use crate::sizing::DEFAULT_MIN_EDGE_FACTOR;
 
     #[test]
     fn query_values_take_their_types() {

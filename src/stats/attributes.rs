@@ -34,6 +34,7 @@ use serde::{Deserialize, Serialize};
 use super::rng::Pcg64;
 use crate::appearance::{Appearance, DroppedAttribute};
 use crate::bvh::SegmentIndex;
+use crate::topology::EdgeTable;
 use crate::transfer::SourceAttributes;
 use crate::trimesh::{weld_positions, TriMesh};
 
@@ -128,16 +129,22 @@ pub fn compute(
         }
     }
     let textures = Textures::new(input, &mut stats.notes);
-    for set in 0..output
+    let sets = output
         .attributes
         .texcoords
         .len()
-        .min(input.attributes.texcoords.len())
-    {
-        let (seams_in, len_in) = seam_segments(input, set);
-        let (seams_out, _) = seam_segments(output, set);
+        .min(input.attributes.texcoords.len());
+    // Each side is welded, and its edges paired, once for every set.
+    let (welded_in, welded_out) = if sets > 0 {
+        (Welded::new(input), Welded::new(output))
+    } else {
+        (Welded::default(), Welded::default())
+    };
+    for set in 0..sets {
+        let (seams_in, len_in) = seam_segments(input, &welded_in, set);
+        let (seams_out, _) = seam_segments(output, &welded_out, set);
         let (within, max_d) = seam_fidelity(&seams_in, &seams_out, l);
-        let (charts, flipped, degenerate) = orientation(output, set, source);
+        let (charts, flipped, degenerate) = orientation(output, &welded_out, set, source);
         let color_error = source.and_then(|s| textures.error(input, s, output, set));
         stats.texcoords.push(TexcoordStats {
             set: set as u32,
@@ -157,6 +164,22 @@ pub fn compute(
     stats
 }
 
+/// A mesh's faces over welded positions and their manifold edges'
+/// half-edge pairs, built once per mesh for every texture coordinate set.
+#[derive(Default)]
+struct Welded {
+    faces: Vec<([u32; 3], [u32; 3])>,
+    twins: Vec<[u32; 2]>,
+}
+
+impl Welded {
+    fn new(m: &TriMesh) -> Self {
+        let faces = welded_faces(m);
+        let twins = twins(&faces);
+        Self { faces, twins }
+    }
+}
+
 /// Faces over welded positions, with their original corners: (welded
 /// triangle, original triangle) for every face with three distinct welded
 /// corners.
@@ -174,23 +197,15 @@ fn welded_faces(m: &TriMesh) -> Vec<([u32; 3], [u32; 3])> {
 /// For each manifold edge of the welded faces `faces`: (face, corner k
 /// running a→b, twin face, twin corner), i.e. half-edge pairs.
 fn twins(faces: &[([u32; 3], [u32; 3])]) -> Vec<[u32; 2]> {
-    let mut e: Vec<(u64, u32)> = Vec::with_capacity(faces.len() * 3);
-    for (f, (w, _)) in faces.iter().enumerate() {
-        for k in 0..3 {
-            let (a, b) = (w[k], w[(k + 1) % 3]);
-            e.push((
-                (u64::from(a.min(b)) << 32) | u64::from(a.max(b)),
-                3 * f as u32 + k as u32,
-            ));
+    let tris: Vec<[u32; 3]> = faces.iter().map(|(w, _)| *w).collect();
+    let vertex_count = tris.iter().flatten().max().map_or(0, |&v| v as usize + 1);
+    let mut out = Vec::new();
+    EdgeTable::new(&tris, vertex_count).for_each(|_, _, run| {
+        if let [(_, h0), (_, h1)] = *run {
+            out.push([h0, h1]);
         }
-    }
-    e.par_sort_unstable();
-    e.chunk_by(|x, y| x.0 == y.0)
-        .filter_map(|run| match *run {
-            [(_, h0), (_, h1)] => Some([h0, h1]),
-            _ => None,
-        })
-        .collect()
+    });
+    out
 }
 
 /// Whether the twin half-edges `h` differ in set `set` at either end.
@@ -207,11 +222,13 @@ fn is_seam(m: &TriMesh, faces: &[([u32; 3], [u32; 3])], set: usize, [h0, h1]: [u
 }
 
 /// The seam edges of set `set` as segments, and their total length.
-fn seam_segments(m: &TriMesh, set: usize) -> (Vec<[DVec3; 2]>, f64) {
-    let faces = welded_faces(m);
-    let segs: Vec<[DVec3; 2]> = twins(&faces)
-        .into_iter()
-        .filter(|&h| is_seam(m, &faces, set, h))
+fn seam_segments(m: &TriMesh, w: &Welded, set: usize) -> (Vec<[DVec3; 2]>, f64) {
+    let faces = &w.faces;
+    let segs: Vec<[DVec3; 2]> = w
+        .twins
+        .iter()
+        .copied()
+        .filter(|&h| is_seam(m, faces, set, h))
         .map(|[h0, _]| {
             let (_, t) = faces[(h0 / 3) as usize];
             let k = (h0 % 3) as usize;
@@ -271,11 +288,16 @@ fn uv_area(uv: &[[f32; 2]], t: [u32; 3]) -> f64 {
 /// (charts, UV-flipped triangles, UV-degenerate triangles) of set `set`:
 /// flipped against the input's orientation at the centroid when `source`
 /// is given, else against the chart's majority.
-fn orientation(m: &TriMesh, set: usize, source: Option<&SourceAttributes>) -> (u64, u64, u64) {
-    let faces = welded_faces(m);
+fn orientation(
+    m: &TriMesh,
+    w: &Welded,
+    set: usize,
+    source: Option<&SourceAttributes>,
+) -> (u64, u64, u64) {
+    let faces = &w.faces;
     let mut uf = crate::topology::UnionFind::new(faces.len());
-    for h in twins(&faces) {
-        if !is_seam(m, &faces, set, h) {
+    for &h in &w.twins {
+        if !is_seam(m, faces, set, h) {
             uf.union(h[0] / 3, h[1] / 3);
         }
     }

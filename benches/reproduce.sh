@@ -293,8 +293,14 @@ check-stats)
         --pair "$(mesh_path "$1")" "$(abs "$2")"
     ;;
 service)
-    build_release
-    bin=target/release/isoremesh
+    # ISOREMESH_BIN measures another build (an older commit's, for a
+    # before-and-after in one sitting).
+    if [[ -n ${ISOREMESH_BIN:-} ]]; then
+        bin=$(abs "$ISOREMESH_BIN")
+    else
+        build_release
+        bin=target/release/isoremesh
+    fi
     mkdir -p "$OUT"
     data=$(mktemp -d)
     port=$(python3 -c 'import socket

@@ -226,6 +226,25 @@ fn a_scene_keeps_its_nodes_meshes_and_transforms() {
     // The mesh two nodes use is written once, and both use it.
     assert_eq!(b["nodes"][2]["mesh"], b["nodes"][3]["mesh"]);
     assert_eq!(b["meshes"].as_array().unwrap().len(), 2);
+    // The same tree in a GLB's JSON chunk, and again after reading the GLB
+    // back and writing it as glTF.
+    let loaded = pipeline::load(&input, Some("sofa.gltf"), None, &ReadOptions::default()).unwrap();
+    let options = RemeshOptions {
+        target_edge_length: Some(0.08),
+        ..Default::default()
+    };
+    let mesh = pipeline::run(&loaded, &options, &mut NoObserver)
+        .unwrap()
+        .mesh;
+    let glb = pipeline::encode(&mesh, Format::Glb).unwrap();
+    let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+    let g = document(&glb[20..20 + json_len]);
+    assert_eq!(tree(&g), tree(&a), "the GLB's scene tree");
+    let again = io::read(&glb, Format::Glb, &ReadOptions::default())
+        .unwrap()
+        .mesh;
+    let c = document(&pipeline::encode(&again, Format::Gltf).unwrap());
+    assert_eq!(tree(&c), tree(&a), "read back and written again");
 }
 
 #[test]

@@ -159,8 +159,9 @@ usage: benches/reproduce.sh <name> [arguments]
   headline [MESH...]           remesh at L = 0.75 % of the diagonal to GLB with --stats
                                (release binary) and print the headline block; default:
                                the meshes listed in BENCHMARKS.md
-  textured                     the same on gltf/Duck.glb; the statistics, with their
-                               `attributes` section, are in $OUT/Duck.stats.json
+  textured                     the textured table (generated shapes and the Duck, from
+                               tests/attributes_transfer.rs), then the Duck with and
+                               without its texture coordinates, 7 alternated runs
   adaptive [MESH...]           uniform, adaptive and uniform-at-the-adaptive-face-count
                                remeshes, measured with quality.py (default: spot,
                                bunny, fertility)
@@ -218,11 +219,44 @@ hard-edges)
             --ours "target/release/isoremesh $OURS_ARGS --features $fs" "$@"
     done
     ;;
-headline | textured)
+textured)
+    # The table of generated textured shapes and the Duck (the rows that
+    # tests/attributes_transfer.rs prints), then the Duck with and without
+    # its texture coordinates: the same geometry as a plain OBJ, 7 runs
+    # each, alternated.
+    cargo test --release --test attributes_transfer -- --nocapture --test-threads 1 2>/dev/null |
+        grep -o '| .* |$'
     build_release
-    if [[ $cmd == textured ]]; then
-        set -- gltf/Duck.glb
-    elif [[ $# -eq 0 ]]; then
+    mkdir -p "$OUT"
+    duck=$MESHES/gltf/Duck.glb
+    python3 -c 'import sys
+from meshload import load_mesh
+V, F = load_mesh(sys.argv[1])[:2]
+with open(sys.argv[2], "w") as f:
+    f.writelines("v %r %r %r\n" % tuple(map(float, p)) for p in V)
+    f.writelines("f %d %d %d\n" % tuple(int(i) + 1 for i in t) for t in F)' "$duck" "$OUT/duck-plain.obj"
+    declare -A secs=()
+    for _ in 1 2 3 4 5 6 7; do
+        for v in plain textured; do
+            in=$OUT/duck-plain.obj
+            [[ $v == textured ]] && in=$duck
+            t0=$EPOCHREALTIME
+            target/release/isoremesh remesh "$in" "$OUT/duck-$v.glb" --target-edge-ratio 0.0075 \
+                --stats "$OUT/duck-$v.stats.json" >/dev/null
+            secs[$v]+=" $(elapsed "$t0")"
+        done
+    done
+    for v in plain textured; do
+        jq -r --arg v "$v" --arg t "$(median ${secs[$v]})" '.output |
+            "Duck \($v): band \(.edge_length.within_band), val6 \(.valence.regular_fraction), " +
+            "valence deviation \(.valence.mean_abs_deviation), smallest angle \(.angles.min_deg)°, " +
+            "Hausdorff/diag \(.distance.hausdorff_relative), whole process \($t) s"' \
+            "$OUT/duck-$v.stats.json"
+    done
+    ;;
+headline)
+    build_release
+    if [[ $# -eq 0 ]]; then
         set -- more/beetle.obj more/horse_quad.obj more/truck.obj more/beast.obj \
             more/ogre.obj spot.obj gltf/Duck.glb stanford-bunny.obj igea.ply
     fi

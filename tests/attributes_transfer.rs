@@ -70,6 +70,33 @@ fn check_textured(job: &JobOutput, png: &[u8]) -> TexcoordStats {
     uv
 }
 
+/// Prints the figures of docs/BENCHMARKS.md's textured table for `job` as
+/// one Markdown row (shown with `--nocapture`; `benches/reproduce.sh
+/// textured` collects them).
+fn print_row(name: &str, job: &JobOutput, uv: &TexcoordStats) {
+    let out = &job.stats.output;
+    let e = out.edge_length.as_ref().unwrap();
+    let colour = uv.color_error.as_ref().map_or("-".to_string(), |c| {
+        format!(
+            "{:.2}, {:.2}, {:.2} | {:.1}, {:.1}, {:.1}",
+            c.mean[0], c.mean[1], c.mean[2], c.p99[0], c.p99[1], c.p99[2]
+        )
+    });
+    println!(
+        "| {name} | {} | {:.1} % | {:.1} % | {} → {} | {:.2} % | {} / {} | {:.3} → {:.3} | {colour} |",
+        out.faces,
+        100.0 * e.within_band,
+        100.0 * out.valence.regular_fraction.unwrap_or(0.0),
+        uv.seam_edges_in,
+        uv.seam_edges_out,
+        100.0 * uv.seam_within_1pct_l,
+        uv.uv_flipped,
+        uv.uv_degenerate,
+        uv.stretch_l2_in,
+        uv.stretch_l2_out,
+    );
+}
+
 /// u from the angle around z, with a face that straddles the cut taking
 /// the far side (u > 1) so that it is not stretched across the texture.
 fn around(p: [DVec3; 3]) -> [f64; 3] {
@@ -104,6 +131,7 @@ fn uv_sphere_with_one_seam_keeps_its_checker() {
     );
     let job = remesh(&glb);
     let uv = check_textured(&job, &png);
+    print_row("UV sphere", &job, &uv);
     assert!(uv.seam_edges_in > 0 && uv.seam_edges_out > 0);
 }
 
@@ -133,6 +161,7 @@ fn cube_with_six_charts_keeps_each_side_on_its_own() {
     );
     let job = remesh(&glb);
     let uv = check_textured(&job, &png);
+    print_row("cube, six charts", &job, &uv);
     assert_eq!(uv.charts_out, 6, "{uv:?}");
 }
 
@@ -149,7 +178,8 @@ fn open_cylinder_with_a_seam_along_its_length() {
         &png,
     );
     let job = remesh(&glb);
-    check_textured(&job, &png);
+    let uv = check_textured(&job, &png);
+    print_row("open cylinder", &job, &uv);
 }
 
 #[test]
@@ -200,6 +230,7 @@ fn duck_keeps_its_texture() {
         .clone();
     let job = remesh(&glb);
     let uv = &job.stats.attributes.texcoords[0];
+    print_row("Duck.glb", &job, uv);
     let err = uv.color_error.as_ref().unwrap();
     for c in 0..3 {
         assert!(err.mean[c] <= 3.0 && err.p99[c] <= 24.0, "{err:?}");

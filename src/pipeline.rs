@@ -230,12 +230,15 @@ pub fn measure(input: &LoadedInput, remeshed: &Remeshed, options: &RemeshOptions
     let mut output_stats = output_stats;
     if let Some(e) = output_stats.edge_length.as_mut() {
         // Against L under uniform sizing, as the band itself.
-        let uniform;
-        let target = if adaptive {
-            &out.vertex_target
-        } else {
-            uniform = vec![l; out.mesh.vertex_capacity()];
-            &uniform
+        let target = |v: crate::mesh::VertexId| {
+            if adaptive {
+                out.vertex_target
+                    .get(v.0 as usize)
+                    .copied()
+                    .unwrap_or(f64::NAN)
+            } else {
+                l
+            }
         };
         e.split = Some(stats::forced::band_split(
             &out.mesh,

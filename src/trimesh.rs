@@ -179,6 +179,19 @@ impl TriMesh {
         self.face_labels.get(f).copied().unwrap_or(0)
     }
 
+    /// The part of the mesh's scene that label `l`'s faces belong to: the
+    /// label's own, or the only part; `None` without a scene, or for a
+    /// label of no part.
+    pub fn label_part(&self, l: usize) -> Option<usize> {
+        let scene = self.scene.as_deref()?;
+        self.labels
+            .get(l)
+            .and_then(|lab| lab.part)
+            .map(|p| p as usize)
+            .filter(|&p| p < scene.parts.len())
+            .or((scene.parts.len() == 1).then_some(0))
+    }
+
     /// Number of distinct labels (at least 1 for a non-empty mesh).
     pub fn label_count(&self) -> usize {
         self.labels.len().max(1)

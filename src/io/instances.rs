@@ -22,17 +22,9 @@ pub(super) fn expand<'a>(
     let Some(scene) = mesh.scene.as_deref().filter(|s| s.has_instances()) else {
         return Ok((Cow::Borrowed(mesh), Cow::Borrowed(attrs)));
     };
-    let only = (scene.parts.len() == 1).then_some(0);
-    let part_of = |f: usize| -> Option<usize> {
-        mesh.labels
-            .get(mesh.face_label(f) as usize)
-            .and_then(|l| l.part)
-            .map(|p| p as usize)
-            .or(only)
-    };
     let mut faces_of: Vec<Vec<u32>> = vec![Vec::new(); scene.parts.len()];
     for f in 0..mesh.triangles.len() {
-        if let Some(p) = part_of(f).filter(|&p| p < scene.parts.len()) {
+        if let Some(p) = mesh.label_part(mesh.face_label(f) as usize) {
             faces_of[p].push(f as u32);
         }
     }

@@ -521,16 +521,9 @@ fn object_names(mesh: &TriMesh) -> Vec<String> {
     let Some(scene) = mesh.scene.as_deref().filter(|s| s.is_structured()) else {
         return Vec::new();
     };
-    let only = (scene.parts.len() == 1).then_some(0);
     (0..mesh.label_count())
         .map(|l| {
-            let p = mesh
-                .labels
-                .get(l)
-                .and_then(|lab| lab.part)
-                .map(|p| p as usize)
-                .or(only)
-                .unwrap_or(0);
+            let p = mesh.label_part(l).unwrap_or(0);
             let name = scene.parts.get(p).and_then(|part| part.name.as_deref());
             let clean = name
                 .map(|n| n.split_whitespace().collect::<Vec<_>>().join(" "))

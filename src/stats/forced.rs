@@ -33,12 +33,11 @@ pub struct BandSplit {
 }
 
 /// The forced and free band of `mesh` (a remesh output) against the
-/// per-vertex targets `target` (one per vertex), with corners at turns
-/// sharper than `corner_angle_deg`.
-pub fn band_split(mesh: &Mesh, target: &[f64], corner_angle_deg: f64) -> BandSplit {
+/// target length `t(v)` at each vertex, with corners at turns sharper than
+/// `corner_angle_deg`.
+pub fn band_split(mesh: &Mesh, t: impl Fn(VertexId) -> f64, corner_angle_deg: f64) -> BandSplit {
     let ne = mesh.edge_capacity();
     let nv = mesh.vertex_capacity();
-    let t = |v: VertexId| target.get(v.idx()).copied().unwrap_or(f64::NAN);
     let mut forced = vec![false; ne];
     // Feature valence and the feature edges at each vertex.
     let mut feature_at: Vec<Vec<EdgeId>> = vec![Vec::new(); nv];
@@ -173,8 +172,7 @@ mod tests {
         for e in flagged {
             mesh.edge_flags[e] |= EDGE_FEATURE;
         }
-        let target = vec![0.25; mesh.vertex_capacity()];
-        let s = band_split(&mesh, &target, 45.0);
+        let s = band_split(&mesh, |_| 0.25, 45.0);
         // The slab's 4 vertical creases are 4 × 4 segments of 0.025.
         assert_eq!(s.forced_edges, 16);
         assert_eq!(s.forced_within_band, 0.0);

@@ -107,21 +107,10 @@ impl RawScene {
     }
 }
 
-/// The part each label's faces belong to: its own, or the only part.
+/// The part each label's faces belong to ([`TriMesh::label_part`]).
 pub(super) fn label_parts(mesh: &TriMesh) -> Vec<Option<usize>> {
-    let Some(scene) = mesh.scene.as_deref() else {
-        return vec![None; mesh.label_count()];
-    };
-    let only = (scene.parts.len() == 1).then_some(0);
     (0..mesh.label_count())
-        .map(|l| {
-            mesh.labels
-                .get(l)
-                .and_then(|lab| lab.part)
-                .map(|p| p as usize)
-                .filter(|&p| p < scene.parts.len())
-                .or(only)
-        })
+        .map(|l| mesh.label_part(l))
         .collect()
 }
 

@@ -29,6 +29,10 @@ use crate::bvh::{closest_point_on_triangle, SurfaceIndex};
 use crate::topology::{corner_fans, EdgeTable};
 use crate::trimesh::{position_key, weld_positions, TriMesh};
 
+/// A texture-space triangle with less signed area than this is degenerate
+/// (the statistics and the remesher's texture guard agree on it).
+pub const UV_DEGENERATE_AREA: f64 = 1e-12;
+
 /// No face across an edge: a boundary, a non-manifold edge or a seam.
 const NONE: u32 = u32::MAX;
 
@@ -48,6 +52,8 @@ pub struct SourceAttributes {
     across: Vec<[u32; 3]>,
     /// Per kept face, the input face (index into the source) it came from.
     source_face: Vec<u32>,
+    /// Per kept face, its label (material and part).
+    label: Vec<u32>,
     /// Seam edges as welded-position pairs, a < b.
     seams: Vec<[u32; 2]>,
     index: SurfaceIndex,
@@ -116,12 +122,17 @@ impl SourceAttributes {
             }
         });
         let index = SurfaceIndex::new(&positions, &tris);
+        let label = source_face
+            .iter()
+            .map(|&f| source.face_label(f as usize))
+            .collect();
         Some(Self {
             layout: layout.empty_like(),
             width,
             corner_values,
             across,
             source_face,
+            label,
             seams,
             index,
         })
@@ -211,7 +222,8 @@ impl SourceAttributes {
                 let t = tris[(c / 3) as usize];
                 let p = out.corner_positions(&t);
                 let v = p[(c % 3) as usize];
-                self.value_at(v, (p[0] + p[1] + p[2]) / 3.0, face_normal(p))
+                let label = out.face_label((c / 3) as usize);
+                self.value_at(v, (p[0] + p[1] + p[2]) / 3.0, face_normal(p), label)
             })
             .collect();
         let mut out_values = vec![0f32; nc * w];
@@ -223,13 +235,9 @@ impl SourceAttributes {
     }
 
     /// The attributes at `v`, read on the side of `inside`, a point of the
-    /// wedge's face whose normal is `normal`.
-    fn value_at(&self, v: DVec3, inside: DVec3, normal: DVec3) -> Vec<f32> {
-        let idx = &self.index;
-        let start = idx
-            .closest_point_filtered(inside, |f| idx.face_normal(f).dot(normal) > 0.0)
-            .or_else(|| idx.closest_point(inside));
-        let Some(start) = start else {
+    /// wedge's face whose normal is `normal` and whose label is `label`.
+    pub fn value_at(&self, v: DVec3, inside: DVec3, normal: DVec3, label: u32) -> Vec<f32> {
+        let Some(start) = self.start(inside, normal, label) else {
             return vec![0.0; self.width];
         };
         let (face, bary) = self.walk(start.face, v);
@@ -240,6 +248,21 @@ impl SourceAttributes {
                 (bary.x * c(0) + bary.y * c(1) + bary.z * c(2)) as f32
             })
             .collect()
+    }
+
+    /// The input face where a lookup for a face of label `label` with
+    /// normal `normal` starts: the closest to `inside` among the input's
+    /// faces of that label facing the same side, else of that label, else
+    /// any. An output face takes its attributes from input faces of its own
+    /// label, whose borders are features: where parts of a scene touch or
+    /// pass through each other, the closest input face may belong to
+    /// another part, with another texture.
+    fn start(&self, inside: DVec3, normal: DVec3, label: u32) -> Option<crate::bvh::ClosestPoint> {
+        let idx = &self.index;
+        let ours = |f: u32| self.label[f as usize] == label;
+        idx.closest_point_filtered(inside, |f| ours(f) && idx.face_normal(f).dot(normal) > 0.0)
+            .or_else(|| idx.closest_point_filtered(inside, ours))
+            .or_else(|| idx.closest_point(inside))
     }
 
     /// From face `f`, the face of its chart nearest to `p` by a descent
@@ -283,10 +306,14 @@ impl SourceAttributes {
         (cur, bary)
     }
 
-    /// The closest input point to `p`: its kept face and the texture
+    /// The closest input point to `p` among the input's faces of label
+    /// `label` (any face when it has none): its kept face and the texture
     /// coordinates of set `set` there.
-    pub fn closest_texcoord(&self, p: DVec3, set: usize) -> Option<(u32, [f64; 2])> {
-        let cp = self.index.closest_point(p)?;
+    pub fn closest_texcoord(&self, p: DVec3, set: usize, label: u32) -> Option<(u32, [f64; 2])> {
+        let cp = self
+            .index
+            .closest_point_filtered(p, |f| self.label[f as usize] == label)
+            .or_else(|| self.index.closest_point(p))?;
         let base = 3 * cp.face as usize * self.width + 2 * set;
         let b = cp.barycentric;
         let at = |k: usize, c: usize| f64::from(self.corner_values[base + k * self.width + c]);
@@ -296,13 +323,16 @@ impl SourceAttributes {
         ))
     }
 
-    /// The signed UV area, in set `set`, of the input face closest to `p`
-    /// among those facing the same side as `normal`.
-    pub fn uv_orientation_at(&self, p: DVec3, normal: DVec3, set: usize) -> Option<f64> {
-        let idx = &self.index;
-        let cp = idx
-            .closest_point_filtered(p, |f| idx.face_normal(f).dot(normal) > 0.0)
-            .or_else(|| idx.closest_point(p))?;
+    /// The signed UV area, in set `set`, of the input face where a lookup
+    /// for a face at `p` with normal `normal` and label `label` starts.
+    pub fn uv_orientation_at(
+        &self,
+        p: DVec3,
+        normal: DVec3,
+        set: usize,
+        label: u32,
+    ) -> Option<f64> {
+        let cp = self.start(p, normal, label)?;
         Some(uv_area(&self.corner_values, self.width, cp.face, set))
     }
 

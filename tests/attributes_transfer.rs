@@ -182,6 +182,39 @@ fn open_cylinder_with_a_seam_along_its_length() {
     print_row("open cylinder", &job, &uv);
 }
 
+/// A texture map that shears back and forth along rows narrower than the
+/// output's triangles (u = x + s(y), s a zigzag; v = y). Every input face
+/// is affine and keeps its orientation, but three corners of a coarser
+/// triangle sampled on it can fold, so the remesher's texture-space guard
+/// must mend them: none is left flipped or degenerate.
+#[test]
+fn a_shear_finer_than_the_output_folds_no_triangle() {
+    let plane = shapes::grid(1.0, 160);
+    let png = checker_png();
+    // Period 4/160 and amplitude 0.02, its kinks on grid rows: linear on
+    // every input face, with slope 1.6.
+    let zigzag = |y: f64| {
+        let t = (y * 40.0).rem_euclid(1.0);
+        0.02 * (1.0 - (2.0 * t - 1.0).abs())
+    };
+    let glb = textured_glb(
+        &plane,
+        |p| p.map(|q| [(q.x + zigzag(q.y)) as f32, q.y as f32]),
+        &png,
+    );
+    let job = remesh(&glb);
+    let uv = &job.stats.attributes.texcoords[0];
+    let guard = job.report.uv_repair;
+    println!("shear: texture-space guard {guard:?}");
+    assert!(guard.found > 0, "the case no longer folds: {guard:?}");
+    assert_eq!(
+        (guard.left, uv.uv_flipped, uv.uv_degenerate),
+        (0, 0, 0),
+        "{guard:?} {uv:?}"
+    );
+    assert_eq!(uv.seam_edges_out, 0, "{uv:?}");
+}
+
 #[test]
 fn vertex_colours_alone_are_transferred() {
     let mut sphere = shapes::icosphere(4);

@@ -38,7 +38,7 @@ use super::state::{State, COLLAPSE_FACTOR, CORNER, SMOOTH, SPLIT_FACTOR};
 use super::RemeshError;
 use crate::bvh::closest_point_on_triangle;
 use crate::geometry::{triangle_cross, triangle_quality};
-use crate::mesh::{EdgeId, HalfedgeId, Handle, VertexId};
+use crate::mesh::{EdgeId, FaceId, HalfedgeId, Handle, VertexId};
 
 /// A collapse may not create a vertex with more edges than this. Besides
 /// keeping valences near 6, this bounds the cost of every check around the
@@ -124,6 +124,45 @@ pub(super) fn collapse_short_edges(st: &mut State) -> Result<u64, RemeshError> {
         }
     }
     Ok(count)
+}
+
+/// Collapses `h` (removing its source) under this pass's guards, with no
+/// length stretch, when `accept` also holds for the faces around the kept
+/// vertex as they would be: the kept vertex (first corner of each face) at
+/// the collapse position, each with the face it replaces. Returns the kept
+/// vertex.
+pub(super) fn collapse_guarded(
+    st: &mut State,
+    h: HalfedgeId,
+    accept: impl Fn(&State, VertexId, DVec3, &[([VertexId; 3], FaceId)]) -> bool,
+) -> Option<VertexId> {
+    let p = allowed_position(st, h)?;
+    if !valence_ok(st, h) || !st.mesh.can_collapse(h) {
+        return None;
+    }
+    collapse_quality(st, h, p, 1.0)?;
+    let m = &st.mesh;
+    let (v0, v1) = (m.from_vertex(h), m.to_vertex(h));
+    let removed = [m.face(h), m.face(h.twin())];
+    let moved = p != m.position(v1);
+    let mut faces = Vec::new();
+    for v in [v0, v1] {
+        if v == v1 && !moved {
+            continue;
+        }
+        for g in m.outgoing(v) {
+            let f = m.face(g);
+            if f.is_valid() && !removed.contains(&f) {
+                faces.push(([v1, m.to_vertex(g), m.to_vertex(m.next(g))], f));
+            }
+        }
+    }
+    if !accept(st, v1, p, &faces) {
+        return None;
+    }
+    let r = st.collapse(h, p);
+    st.size[r.kept.idx()] = st.size[r.kept.idx()].min(st.size[r.removed.idx()]);
+    Some(r.kept)
 }
 
 /// Whether no neighbour of `a` or `b` is a feature or boundary vertex.

@@ -29,6 +29,7 @@ mod relax;
 mod repair;
 mod split;
 mod state;
+mod uv;
 
 pub use options::{
     estimated_faces, FeatureSource, RemeshOptions, Sizing, SmallParts, DEFAULT_GRADATION,
@@ -242,6 +243,10 @@ pub struct RemeshReport {
     /// Vertices moved by the final shape pass (see the relaxation pass).
     #[serde(default)]
     pub repair_moves: u64,
+    /// The texture-space guard after the last iteration (inputs with
+    /// texture coordinates only).
+    #[serde(default)]
+    pub uv_repair: UvRepairReport,
     /// The input's connected parts, and which were remeshed, kept as they
     /// were or dropped (see [`RemeshOptions::small_parts`]).
     #[serde(default)]
@@ -252,6 +257,19 @@ pub struct RemeshReport {
     pub seconds: PassTimes,
     /// Total wall time in seconds.
     pub total_seconds: f64,
+}
+
+/// What the texture-space guard found and did: output faces flipped or
+/// degenerate in texture space, as the attribute transfer samples them,
+/// before and after its local edits.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct UvRepairReport {
+    /// Faces invalid in texture space before the guard.
+    pub found: u64,
+    /// Moves, flips and collapses it made.
+    pub edits: u64,
+    /// Faces still invalid after it.
+    pub left: u64,
 }
 
 /// The remeshed surface and its report.
@@ -364,6 +382,15 @@ fn run(
         cancel.now()?;
         (report.repair_flips, report.repair_moves) =
             timed(&mut report.seconds.repair, || repair::final_repair(&mut st))?;
+    }
+    if let Some(attrs) = input.source_attributes().filter(|_| iterations > 0) {
+        cancel.now()?;
+        let r = timed(&mut report.seconds.repair, || uv::untangle(&mut st, attrs))?;
+        report.uv_repair = UvRepairReport {
+            found: r.found,
+            edits: r.edits,
+            left: r.left,
+        };
     }
     let (mesh, vertex_target) = st.finish();
     mesh.validate()

@@ -252,7 +252,7 @@ pub(super) fn improve_slivers(st: &mut State) -> Result<u64, RemeshError> {
 /// The one-ring of a vertex as it stands, against which the shape pass
 /// scores candidate positions. A score is the ring's smallest angle as minus
 /// its cosine (monotone in the angle, no `acos`).
-struct Probe {
+pub(super) struct Probe {
     v: VertexId,
     /// The ring faces as (a, b) with (v, a, b) counter-clockwise.
     ring: Vec<(VertexId, VertexId)>,
@@ -267,7 +267,7 @@ struct Probe {
 impl Probe {
     /// The probe of `v`, or `None` when its ring already fails the checks
     /// (see [`Probe::score`]) where it is.
-    fn new(st: &State, v: VertexId, up: Option<DVec3>) -> Option<Self> {
+    pub(super) fn new(st: &State, v: VertexId, up: Option<DVec3>) -> Option<Self> {
         let m = &st.mesh;
         let p = m.position(v);
         let ring: Vec<(VertexId, VertexId)> = m
@@ -292,7 +292,7 @@ impl Probe {
 
     /// The score with `v` at `p`, or `None` when a ring face degenerates,
     /// turns by 60° or more, or faces away from `up`.
-    fn score(&self, st: &State, p: DVec3, up: Option<DVec3>) -> Option<f64> {
+    pub(super) fn score(&self, st: &State, p: DVec3, up: Option<DVec3>) -> Option<f64> {
         self.score_above(st, p, up, f64::NEG_INFINITY)
     }
 
@@ -334,7 +334,7 @@ impl Probe {
 
 /// How many edges at `v` (placed at `p`) leave the band [4/5, 4/3] of their
 /// target.
-fn out_of_band(st: &State, v: VertexId, p: DVec3) -> usize {
+pub(super) fn out_of_band(st: &State, v: VertexId, p: DVec3) -> usize {
     let m = &st.mesh;
     m.outgoing(v)
         .filter(|&h| {

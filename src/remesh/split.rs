@@ -158,7 +158,7 @@ pub(super) fn split_deviating_edges(st: &mut State) -> Result<u64, RemeshError> 
 /// Whether splitting interior edge `e` with the new vertex at `p` leaves
 /// each of the four new faces turned by less than 90° from the face it
 /// replaces part of.
-fn split_keeps_orientation(st: &State, e: EdgeId, p: DVec3) -> bool {
+pub(super) fn split_keeps_orientation(st: &State, e: EdgeId, p: DVec3) -> bool {
     let m = &st.mesh;
     [e.halfedge(0), e.halfedge(1)].into_iter().all(|h| {
         let (a, b) = (m.position(m.from_vertex(h)), m.position(m.to_vertex(h)));

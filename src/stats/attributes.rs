@@ -45,8 +45,7 @@ pub const COLOR_SAMPLES: usize = 100_000;
 /// images are refused from their header, before decoding.
 pub const MAX_TEXTURE_PIXELS: u64 = 64 * 1024 * 1024;
 
-/// UV area below which a triangle is degenerate in UV space.
-const UV_DEGENERATE_AREA: f64 = 1e-12;
+use crate::transfer::UV_DEGENERATE_AREA;
 
 /// The attribute section of a job.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -164,34 +163,44 @@ pub fn compute(
     stats
 }
 
+/// A face over welded positions and its original corners.
+type WeldedFace = ([u32; 3], [u32; 3]);
+
 /// A mesh's faces over welded positions and their manifold edges'
 /// half-edge pairs, built once per mesh for every texture coordinate set.
 #[derive(Default)]
 struct Welded {
-    faces: Vec<([u32; 3], [u32; 3])>,
+    faces: Vec<WeldedFace>,
+    /// Per welded face, its label.
+    labels: Vec<u32>,
     twins: Vec<[u32; 2]>,
 }
 
 impl Welded {
     fn new(m: &TriMesh) -> Self {
-        let faces = welded_faces(m);
+        let (faces, labels) = welded_faces(m);
         let twins = twins(&faces);
-        Self { faces, twins }
+        Self {
+            faces,
+            labels,
+            twins,
+        }
     }
 }
 
 /// Faces over welded positions, with their original corners: (welded
 /// triangle, original triangle) for every face with three distinct welded
-/// corners.
-fn welded_faces(m: &TriMesh) -> Vec<([u32; 3], [u32; 3])> {
+/// corners, and the label of each.
+fn welded_faces(m: &TriMesh) -> (Vec<WeldedFace>, Vec<u32>) {
     let (weld, _) = weld_positions(&m.positions);
     m.triangles
         .iter()
-        .filter_map(|t| {
+        .enumerate()
+        .filter_map(|(f, t)| {
             let w = t.map(|v| weld[v as usize]);
-            (w[0] != w[1] && w[1] != w[2] && w[0] != w[2]).then_some((w, *t))
+            (w[0] != w[1] && w[1] != w[2] && w[0] != w[2]).then_some(((w, *t), m.face_label(f)))
         })
-        .collect()
+        .unzip()
 }
 
 /// For each manifold edge of the welded faces `faces`: (face, corner k
@@ -321,13 +330,14 @@ fn orientation(
         Some(src) => faces
             .par_iter()
             .zip(&areas)
-            .filter(|&(&(_, t), &a)| {
+            .zip(&w.labels)
+            .filter(|&((&(_, t), &a), &label)| {
                 let q = m.corner_positions(&t);
                 let c = (q[0] + q[1] + q[2]) / 3.0;
                 let n = (q[1] - q[0]).cross(q[2] - q[0]);
                 a.abs() >= UV_DEGENERATE_AREA
                     && src
-                        .uv_orientation_at(c, n, set)
+                        .uv_orientation_at(c, n, set, label)
                         .is_some_and(|r| r.abs() >= UV_DEGENERATE_AREA && r * a < 0.0)
             })
             .count() as u64,
@@ -474,7 +484,8 @@ impl Textures {
                         .sum::<f64>()
                 });
                 let got = self.texture(output.face_label(f as usize), set)?.sample(uv);
-                let (face, uv_in) = source.closest_texcoord(p, set)?;
+                let (face, uv_in) =
+                    source.closest_texcoord(p, set, output.face_label(f as usize))?;
                 let label = input.face_label(source.source_face(face) as usize);
                 let want = self.texture(label, set)?.sample(uv_in);
                 Some([0, 1, 2, 3].map(|c| (got[c] - want[c]).abs()))

@@ -1,0 +1,514 @@
+//! The texture-space guard after the last iteration: output triangles whose
+//! texture coordinates, as the attribute transfer will sample them, are
+//! flipped or degenerate against the input's orientation under them are
+//! mended by guarded local edits, so that a textured asset comes out without
+//! folded texels.
+//!
+//! Why a separate pass: an input atlas maps some faces to slivers of texture
+//! space (a chart squeezed along a seam, an almost collinear UV triangle).
+//! An output triangle that spans such a region samples three nearly
+//! collinear texture points, and the piecewise-linear map between its
+//! corners may fold. The geometry alone cannot see this, so the pass reads
+//! the texture coordinates through the same [`SourceAttributes`] that the
+//! transfer uses.
+//!
+//! The edits, tried in order for each bad face:
+//! - move one of its free vertices (not on a feature line) toward the apex
+//!   of the equilateral triangle over its opposite edge, or toward its
+//!   ring's centroid, under the shape pass's 3D checks and length slack,
+//!   when every face of its ring is then valid in texture space;
+//! - flip one of its edges that is not a feature, under the flip guards,
+//!   when both new faces are valid in texture space;
+//! - collapse its shortest edge under the collapse pass's guards, when
+//!   every face around the kept vertex is then valid in texture space;
+//! - split its longest edge that is not a feature, when fewer of the new
+//!   faces than of the old pair are invalid in texture space.
+//!
+//! What is left is reported (`report.uv_repair`), and the statistics count
+//! it as `uv_flipped` and `uv_degenerate`.
+//!
+//! Faces are visited in index order in rounds, so the result is
+//! deterministic.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::collapse::collapse_guarded;
+use super::flip::{geometry_ok, quad, quad_triangles};
+use super::guards::SHAPE_BAND_SLACK;
+use super::relax::{settle, walk_closest};
+use super::repair::{out_of_band, Probe};
+use super::split::split_keeps_orientation;
+use super::state::{State, SMOOTH, SPLIT_FACTOR};
+use super::RemeshError;
+use crate::mesh::{FaceId, HalfedgeId, Handle, VertexId, EDGE_FROZEN};
+use crate::transfer::{SourceAttributes, UV_DEGENERATE_AREA};
+
+/// Rounds over the remaining bad faces; each round only revisits faces that
+/// are still bad, and a round that mends nothing ends the pass.
+const MAX_ROUNDS: usize = 4;
+
+/// How far past the split length the new edge of a texture-space flip may
+/// reach (twice the target). The diagonal of two well-shaped triangles is
+/// about 1.7 times their edges, so a tighter limit refuses most flips, and
+/// the splits that mend those faces instead leave more edges out of the
+/// band than the few long diagonals do.
+const FLIP_STRETCH: f64 = 1.5;
+
+/// What the pass did.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct UvRepair {
+    /// Faces invalid in texture space before the pass.
+    pub found: u64,
+    /// Edits made (moves, flips and collapses).
+    pub edits: u64,
+    /// Faces still invalid after it.
+    pub left: u64,
+}
+
+/// Texture coordinates of the output's vertices, as the transfer samples
+/// them: one value per free vertex (cached), and, for a vertex on a feature
+/// line (where a seam may pass), the value on the side of the face asked
+/// about.
+struct Texcoords<'a> {
+    attrs: &'a SourceAttributes,
+    sets: usize,
+    /// Per vertex, `2 * sets` floats; meaningful for free vertices only.
+    cache: Vec<f32>,
+}
+
+impl<'a> Texcoords<'a> {
+    fn new(st: &State, attrs: &'a SourceAttributes) -> Self {
+        let sets = attrs.layout().texcoords.len();
+        let m = &st.mesh;
+        let cache: Vec<f32> = st.pool.install(|| {
+            (0..m.vertex_capacity() as u32)
+                .into_par_iter()
+                .flat_map_iter(|vi| {
+                    let v = VertexId(vi);
+                    if m.is_vertex_deleted(v) || st.kind[v.idx()] != SMOOTH {
+                        return vec![0.0; 2 * sets];
+                    }
+                    let label = vertex_label(st, v);
+                    Self::sample(attrs, sets, m.position(v), vertex_normal(st, v), label)
+                })
+                .collect()
+        });
+        Self { attrs, sets, cache }
+    }
+
+    /// The texture coordinates at `p`, read on the side of a face through
+    /// `p` with normal `normal` and label `label`.
+    fn sample(
+        attrs: &SourceAttributes,
+        sets: usize,
+        p: DVec3,
+        normal: DVec3,
+        label: u32,
+    ) -> Vec<f32> {
+        let mut v = attrs.value_at(p, p, normal, label);
+        v.truncate(2 * sets);
+        v
+    }
+
+    /// Stores `value`, the texture coordinates that an edit checked its
+    /// faces with, for free vertex `v` (new or moved): the cache then
+    /// agrees with the checks exactly.
+    fn set(&mut self, st: &State, v: VertexId, value: &[f32]) {
+        let w = 2 * self.sets;
+        if self.cache.len() < w * st.mesh.vertex_capacity() {
+            self.cache.resize(w * st.mesh.vertex_capacity(), 0.0);
+        }
+        if st.kind[v.idx()] == SMOOTH {
+            self.cache[w * v.idx()..][..w].copy_from_slice(value);
+        }
+    }
+
+    /// Whether the triangle of vertices `vs` at positions `p` (counter-
+    /// clockwise) is valid in every texture coordinate set: not degenerate,
+    /// and oriented like the input face under its centroid. `moved` gives
+    /// the texture coordinates of a free vertex at a trial position; the
+    /// triangle's label is `label`.
+    fn valid(
+        &self,
+        st: &State,
+        vs: [VertexId; 3],
+        p: [DVec3; 3],
+        moved: Option<(VertexId, &[f32])>,
+        label: u32,
+    ) -> bool {
+        let g = (p[0] + p[1] + p[2]) / 3.0;
+        let n = (p[1] - p[0]).cross(p[2] - p[0]);
+        let w = 2 * self.sets;
+        let corner: Vec<std::borrow::Cow<[f32]>> = (0..3)
+            .map(|k| match moved {
+                Some((mv, uv)) if mv == vs[k] => std::borrow::Cow::Borrowed(uv),
+                _ if st.kind[vs[k].idx()] == SMOOTH => {
+                    std::borrow::Cow::Borrowed(&self.cache[w * vs[k].idx()..][..w])
+                }
+                _ => std::borrow::Cow::Owned(self.attrs.value_at(p[k], g, n, label)),
+            })
+            .collect();
+        (0..self.sets).all(|s| {
+            let uv = |k: usize, c: usize| f64::from(corner[k][2 * s + c]);
+            let a = 0.5
+                * ((uv(1, 0) - uv(0, 0)) * (uv(2, 1) - uv(0, 1))
+                    - (uv(2, 0) - uv(0, 0)) * (uv(1, 1) - uv(0, 1)));
+            if a.abs() < UV_DEGENERATE_AREA {
+                return false;
+            }
+            self.attrs
+                .uv_orientation_at(g, n, s, label)
+                .is_none_or(|r| r.abs() < UV_DEGENERATE_AREA || r * a > 0.0)
+        })
+    }
+
+    fn face_valid(&self, st: &State, f: FaceId) -> bool {
+        let vs = st.mesh.face_vertices(f);
+        let label = st.mesh.face_label[f];
+        self.valid(st, vs, vs.map(|v| st.mesh.position(v)), None, label)
+    }
+}
+
+/// The label of one of `v`'s faces (a free vertex is inside one label).
+fn vertex_label(st: &State, v: VertexId) -> u32 {
+    let m = &st.mesh;
+    m.outgoing(v)
+        .map(|h| m.face(h))
+        .find(|f| f.is_valid())
+        .map_or(0, |f| m.face_label[f])
+}
+
+/// The area-weighted normal of `v`'s faces.
+fn vertex_normal(st: &State, v: VertexId) -> DVec3 {
+    let m = &st.mesh;
+    let p = m.position(v);
+    m.outgoing(v)
+        .filter(|&h| !m.is_boundary_halfedge(h))
+        .map(|h| (m.position(m.to_vertex(h)) - p).cross(m.position(m.to_vertex(m.next(h))) - p))
+        .sum()
+}
+
+/// Mends the faces of `st` that are invalid in texture space. Returns what
+/// it found and did.
+pub(super) fn untangle(st: &mut State, attrs: &SourceAttributes) -> Result<UvRepair, RemeshError> {
+    if attrs.layout().texcoords.is_empty() {
+        return Ok(UvRepair::default());
+    }
+    let mut uv = Texcoords::new(st, attrs);
+    let bad_faces = |st: &State, uv: &Texcoords, among: Option<&[u32]>| -> Vec<u32> {
+        let m = &st.mesh;
+        let check = |fi: u32| !m.is_face_deleted(FaceId(fi)) && !uv.face_valid(st, FaceId(fi));
+        st.pool.install(|| match among {
+            Some(fs) => fs.par_iter().copied().filter(|&f| check(f)).collect(),
+            None => (0..m.face_capacity() as u32)
+                .into_par_iter()
+                .filter(|&f| check(f))
+                .collect(),
+        })
+    };
+    let mut bad = bad_faces(st, &uv, None);
+    let mut report = UvRepair {
+        found: bad.len() as u64,
+        ..UvRepair::default()
+    };
+    for _ in 0..MAX_ROUNDS {
+        if bad.is_empty() {
+            break;
+        }
+        let mut edits = 0;
+        let mut touched: Vec<u32> = Vec::new();
+        for (i, &fi) in bad.iter().enumerate() {
+            st.cancel.every(i as u64 + 1)?;
+            let f = FaceId(fi);
+            if st.mesh.is_face_deleted(f) || uv.face_valid(st, f) {
+                continue;
+            }
+            if let Some(changed) = mend(st, &mut uv, f) {
+                edits += 1;
+                touched.extend(changed);
+            }
+        }
+        report.edits += edits;
+        // Faces that an edit created or changed are checked again with the
+        // ones still bad.
+        touched.extend(bad.iter().copied());
+        touched.sort_unstable();
+        touched.dedup();
+        bad = bad_faces(st, &uv, Some(&touched));
+        if edits == 0 {
+            break;
+        }
+    }
+    report.left = bad.len() as u64;
+    Ok(report)
+}
+
+/// Tries the edits for bad face `f`; returns the faces the edit changed.
+fn mend(st: &mut State, uv: &mut Texcoords, f: FaceId) -> Option<Vec<u32>> {
+    let vs = st.mesh.face_vertices(f);
+    for k in 0..3 {
+        if let Some(changed) = move_vertex(st, uv, vs[k], [vs[(k + 1) % 3], vs[(k + 2) % 3]]) {
+            return Some(changed);
+        }
+    }
+    if let Some(changed) = flip_edge_of(st, uv, f) {
+        return Some(changed);
+    }
+    if let Some(changed) = collapse_edge_of(st, uv, f) {
+        return Some(changed);
+    }
+    split_edge_of(st, uv, f)
+}
+
+/// Splits the longest edge of bad face `f` that is not a feature at the
+/// input point nearest its midpoint, when fewer of the new faces than of
+/// the old pair are invalid in texture space: smaller triangles follow a
+/// strongly bent texture map more closely.
+fn split_edge_of(st: &mut State, uv: &mut Texcoords, f: FaceId) -> Option<Vec<u32>> {
+    let m = &st.mesh;
+    let h0 = m.face_halfedge(f);
+    let mut hs = [h0, m.next(h0), m.next(m.next(h0))];
+    let len = |h: HalfedgeId| {
+        m.position(m.to_vertex(h))
+            .distance_squared(m.position(m.from_vertex(h)))
+    };
+    hs.sort_by(|&x, &y| len(y).total_cmp(&len(x)));
+    for h in hs {
+        let e = h.edge();
+        if st.line_of(e).is_some() || m.is_boundary_edge(e) || m.edge_has_flag(e, EDGE_FROZEN) {
+            continue;
+        }
+        let [a, b, c, d] = quad(m, h);
+        let mid = 0.5 * (m.position(a) + m.position(b));
+        let hint = st.hint_face[a.idx()];
+        let Some(cp) = walk_closest(st, mid, hint, st.size[a.idx()]) else {
+            continue;
+        };
+        if !split_keeps_orientation(st, e, cp.point) {
+            continue;
+        }
+        let p = cp.point;
+        let up = st.input_normals[cp.face as usize];
+        let (l0, l1) = (m.face_label[m.face(h)], m.face_label[m.face(h.twin())]);
+        let here = Texcoords::sample(uv.attrs, uv.sets, p, up, l0);
+        // The new vertex is not in the mesh yet: a stand-in id that no
+        // vertex has, whose coordinates `here` supplies.
+        let nv = VertexId(u32::MAX);
+        let pos = |v: VertexId| if v == nv { p } else { m.position(v) };
+        let bad = |(t, l): ([VertexId; 3], u32)| !uv.valid(st, t, t.map(pos), Some((nv, &here)), l);
+        let before = [([a, b, c], l0), ([b, a, d], l1)]
+            .into_iter()
+            .filter(|&t| bad(t))
+            .count();
+        let after = [
+            ([a, nv, c], l0),
+            ([nv, b, c], l0),
+            ([b, nv, d], l1),
+            ([nv, a, d], l1),
+        ]
+        .into_iter()
+        .filter(|&t| bad(t))
+        .count();
+        if after >= before {
+            continue;
+        }
+        let r = st.split(e, p, 0);
+        settle(st, r.vertex, &cp);
+        uv.set(st, r.vertex, &here);
+        return Some(ring_faces(st, r.vertex));
+    }
+    None
+}
+
+/// Faces around `v`, as face indices.
+fn ring_faces(st: &State, v: VertexId) -> Vec<u32> {
+    let m = &st.mesh;
+    m.outgoing(v)
+        .map(|h| m.face(h))
+        .filter(|f| f.is_valid())
+        .map(|f| f.0)
+        .collect()
+}
+
+/// Moves free vertex `v` of a bad face whose opposite edge is `ab` to where
+/// every ring face is valid in 3D and in texture space.
+fn move_vertex(
+    st: &mut State,
+    uv: &mut Texcoords,
+    v: VertexId,
+    [a, b]: [VertexId; 2],
+) -> Option<Vec<u32>> {
+    if st.kind[v.idx()] != SMOOTH || st.mesh.is_boundary_vertex(v) {
+        return None;
+    }
+    let up = st.input_normals[st.hint_face[v.idx()] as usize];
+    let probe = Probe::new(st, v, Some(up))?;
+    let m = &st.mesh;
+    let p = m.position(v);
+    let (pa, pb) = (m.position(a), m.position(b));
+    let ab = pb - pa;
+    let mid = 0.5 * (pa + pb);
+    let off = p - mid;
+    let perp = (off - ab * (off.dot(ab) / ab.length_squared())).normalize_or_zero();
+    let apex = mid + perp * (0.5 * 3f64.sqrt() * ab.length());
+    let ring: Vec<DVec3> = m.outgoing(v).map(|h| m.position(m.to_vertex(h))).collect();
+    let centroid = ring.iter().sum::<DVec3>() / ring.len() as f64;
+    let slack = out_of_band(st, v, p) + SHAPE_BAND_SLACK;
+    let mut best: Option<(f64, crate::bvh::ClosestPoint, Vec<f32>)> = None;
+    for (target, t) in [
+        (apex, 0.25),
+        (apex, 0.5),
+        (apex, 1.0),
+        (centroid, 0.5),
+        (centroid, 1.0),
+    ] {
+        if perp == DVec3::ZERO && target == apex {
+            continue;
+        }
+        let q = p + t * (target - p);
+        let Some(cp) = walk_closest(st, q, st.hint_face[v.idx()], st.size[v.idx()]) else {
+            continue;
+        };
+        let up = st.input_normals[cp.face as usize];
+        if out_of_band(st, v, cp.point) > slack || stretches(st, v, cp.point) {
+            continue;
+        }
+        let Some(score) = probe.score(st, cp.point, Some(up)) else {
+            continue;
+        };
+        if best.as_ref().is_some_and(|b| b.0 >= score) {
+            continue;
+        }
+        let here = Texcoords::sample(uv.attrs, uv.sets, cp.point, up, vertex_label(st, v));
+        if ring_valid(st, uv, v, cp.point, &here) {
+            best = Some((score, cp, here));
+        }
+    }
+    let (_, cp, here) = best?;
+    st.mesh.set_position(v, cp.point);
+    settle(st, v, &cp);
+    uv.set(st, v, &here);
+    Some(ring_faces(st, v))
+}
+
+/// Whether moving `v` to `p` makes one of its edges longer than both the
+/// split length and what it was.
+fn stretches(st: &State, v: VertexId, p: DVec3) -> bool {
+    let m = &st.mesh;
+    let here = m.position(v);
+    m.outgoing(v).any(|h| {
+        let w = m.to_vertex(h);
+        let (pw, limit) = (m.position(w), SPLIT_FACTOR * st.edge_target(v, w));
+        let d = p.distance(pw);
+        d > limit && d > here.distance(pw)
+    })
+}
+
+/// Whether every face around `v`, with `v` at `p` and texture coordinates
+/// `here`, is valid in texture space.
+fn ring_valid(st: &State, uv: &Texcoords, v: VertexId, p: DVec3, here: &[f32]) -> bool {
+    let m = &st.mesh;
+    m.outgoing(v)
+        .filter(|&h| !m.is_boundary_halfedge(h))
+        .all(|h| {
+            let (a, b) = (m.to_vertex(h), m.to_vertex(m.next(h)));
+            uv.valid(
+                st,
+                [v, a, b],
+                [p, m.position(a), m.position(b)],
+                Some((v, here)),
+                m.face_label[m.face(h)],
+            )
+        })
+}
+
+/// Flips an edge of bad face `f` that is not a feature, under the flip
+/// guards, when both new faces are valid in texture space and the new
+/// edge is at most [`FLIP_STRETCH`] times the split length.
+fn flip_edge_of(st: &mut State, uv: &Texcoords, f: FaceId) -> Option<Vec<u32>> {
+    let m = &st.mesh;
+    let h0 = m.face_halfedge(f);
+    for h in [h0, m.next(h0), m.next(m.next(h0))] {
+        let e = h.edge();
+        if st.line_of(e).is_some()
+            || m.is_boundary_edge(e)
+            || m.edge_has_flag(e, EDGE_FROZEN)
+            || !m.can_flip(e)
+        {
+            continue;
+        }
+        let q = quad(m, h);
+        let (old, new) = quad_triangles(m, q);
+        if !geometry_ok(old, new) {
+            continue;
+        }
+        let [a, b, c, d] = q;
+        let cd = m.position(c).distance(m.position(d));
+        if cd > FLIP_STRETCH * SPLIT_FACTOR * st.edge_target(c, d) {
+            continue;
+        }
+        let label = m.face_label[m.face(h)];
+        if uv.valid(st, [c, a, d], new[0], None, label)
+            && uv.valid(st, [d, b, c], new[1], None, label)
+        {
+            let faces = [m.face(h).0, m.face(h.twin()).0];
+            st.mesh.flip_edge(e);
+            return Some(faces.to_vec());
+        }
+    }
+    None
+}
+
+/// Collapses the shortest edge of bad face `f` that the collapse guards
+/// allow, when every face around the kept vertex is then valid in texture
+/// space.
+fn collapse_edge_of(st: &mut State, uv: &mut Texcoords, f: FaceId) -> Option<Vec<u32>> {
+    let m = &st.mesh;
+    let h0 = m.face_halfedge(f);
+    let mut hs = [h0, m.next(h0), m.next(m.next(h0))];
+    let len = |h: HalfedgeId| {
+        m.position(m.to_vertex(h))
+            .distance_squared(m.position(m.from_vertex(h)))
+    };
+    hs.sort_by(|&x, &y| len(x).total_cmp(&len(y)));
+    // The kept vertex's texture coordinates as the accepted check saw them.
+    let chosen = std::cell::RefCell::new(Vec::new());
+    let accept = |st: &State, kept: VertexId, p: DVec3, faces: &[([VertexId; 3], FaceId)]| {
+        let m = &st.mesh;
+        let here = (st.kind[kept.idx()] == SMOOTH).then(|| {
+            let n: DVec3 = faces
+                .iter()
+                .map(|(t, _)| (m.position(t[1]) - p).cross(m.position(t[2]) - p))
+                .sum();
+            let label = faces.first().map_or(0, |&(_, f)| m.face_label[f]);
+            Texcoords::sample(uv.attrs, uv.sets, p, n, label)
+        });
+        let ok = faces.iter().all(|&(t, f)| {
+            let p3 = [p, m.position(t[1]), m.position(t[2])];
+            uv.valid(
+                st,
+                t,
+                p3,
+                here.as_deref().map(|s| (kept, s)),
+                m.face_label[f],
+            )
+        });
+        if ok {
+            *chosen.borrow_mut() = here.unwrap_or_default();
+        }
+        ok
+    };
+    for h in hs {
+        for h in [h, h.twin()] {
+            if let Some(kept) = collapse_guarded(st, h, accept) {
+                let here = chosen.take();
+                if !here.is_empty() {
+                    uv.set(st, kept, &here);
+                }
+                return Some(ring_faces(st, kept));
+            }
+        }
+    }
+    None
+}

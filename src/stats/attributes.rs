@@ -22,8 +22,9 @@
 //! - the colour error samples the output's surface uniformly by area and
 //!   compares, per channel in 8-bit units, the texel read (bilinear,
 //!   repeating) through the output's UVs with the texel read through the
-//!   input's UVs at the closest input point. `KHR_texture_transform` is the
-//!   same on both sides and is not applied.
+//!   input's UVs at the closest input point, on input faces of the output
+//!   face's label, both through the label's `KHR_texture_transform` when
+//!   its base-colour texture declares one.
 
 use std::collections::HashMap;
 
@@ -404,10 +405,65 @@ impl Texture {
     }
 }
 
+/// A `KHR_texture_transform` of a texture reference: texture coordinates
+/// are scaled, rotated counter-clockwise about the origin and offset, in
+/// that order, before the texture is read.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct UvTransform {
+    offset: [f64; 2],
+    rotation: f64,
+    scale: [f64; 2],
+}
+
+impl Default for UvTransform {
+    fn default() -> Self {
+        Self {
+            offset: [0.0; 2],
+            rotation: 0.0,
+            scale: [1.0; 2],
+        }
+    }
+}
+
+impl UvTransform {
+    /// The transform an extension object declares; a missing or malformed
+    /// property keeps its default.
+    fn parse(ext: &serde_json::Value) -> Self {
+        let pair = |key: &str, default: [f64; 2]| {
+            ext.get(key)
+                .and_then(|v| v.as_array())
+                .filter(|a| a.len() == 2)
+                .and_then(|a| Some([a[0].as_f64()?, a[1].as_f64()?]))
+                .filter(|p| p.iter().all(|x| x.is_finite()))
+                .unwrap_or(default)
+        };
+        Self {
+            offset: pair("offset", [0.0; 2]),
+            rotation: ext
+                .get("rotation")
+                .and_then(|v| v.as_f64())
+                .filter(|r| r.is_finite())
+                .unwrap_or(0.0),
+            scale: pair("scale", [1.0; 2]),
+        }
+    }
+
+    /// The extension's matrix (translation × rotation × scale, with the
+    /// rotation's columns (cos, sin) and (−sin, cos)) applied to `uv`.
+    fn apply(&self, uv: [f64; 2]) -> [f64; 2] {
+        let (s, c) = self.rotation.sin_cos();
+        let (x, y) = (uv[0] * self.scale[0], uv[1] * self.scale[1]);
+        [
+            self.offset[0] + c * x - s * y,
+            self.offset[1] + s * x + c * y,
+        ]
+    }
+}
+
 /// The base-colour textures of a mesh's labels: per label, the texture
 /// and the texture coordinate set it reads.
 struct Textures {
-    per_label: Vec<Option<(usize, u32)>>,
+    per_label: Vec<Option<(usize, u32, UvTransform)>>,
     decoded: Vec<Option<Texture>>,
 }
 
@@ -423,21 +479,32 @@ impl Textures {
                 let raw = m.labels.get(l)?.material.as_ref()?.gltf.as_ref()?;
                 let info = raw.get("pbrMetallicRoughness")?.get("baseColorTexture")?;
                 let tex = info.get("index")?.as_u64()? as usize;
-                let set = info.get("texCoord").and_then(|v| v.as_u64()).unwrap_or(0) as u32;
+                let transform = info
+                    .get("extensions")
+                    .and_then(|e| e.get("KHR_texture_transform"));
+                let set = transform
+                    .and_then(|t| t.get("texCoord"))
+                    .or_else(|| info.get("texCoord"))
+                    .and_then(|v| v.as_u64())
+                    .unwrap_or(0) as u32;
+                let transform = transform.map_or_else(UvTransform::default, UvTransform::parse);
                 let image = look.textures.get(tex)?.get("source")?.as_u64()? as usize;
                 let slot = *by_image.entry(image).or_insert_with(|| {
                     decoded.push(decode(look, image, notes));
                     decoded.len() - 1
                 });
-                Some((slot, set))
+                Some((slot, set, transform))
             })
             .collect();
         Self { per_label, decoded }
     }
 
-    fn texture(&self, label: u32, set: usize) -> Option<&Texture> {
-        let (slot, s) = (*self.per_label.get(label as usize)?)?;
-        (s as usize == set).then(|| self.decoded[slot].as_ref())?
+    /// The base-colour texture of label `label` when it reads set `set`,
+    /// with the label's texture transform.
+    fn texture(&self, label: u32, set: usize) -> Option<(&Texture, UvTransform)> {
+        let (slot, s, transform) = (*self.per_label.get(label as usize)?)?;
+        let texture = (s as usize == set).then(|| self.decoded[slot].as_ref())??;
+        Some((texture, transform))
     }
 
     /// The colour error of set `set`, when some label's base colour reads it.
@@ -483,11 +550,13 @@ impl Textures {
                         .map(|k| bary[k] * f64::from(out_uv[t[k] as usize][c]))
                         .sum::<f64>()
                 });
-                let got = self.texture(output.face_label(f as usize), set)?.sample(uv);
+                let (texture, transform) = self.texture(output.face_label(f as usize), set)?;
+                let got = texture.sample(transform.apply(uv));
                 let (face, uv_in) =
                     source.closest_texcoord(p, set, output.face_label(f as usize))?;
                 let label = input.face_label(source.source_face(face) as usize);
-                let want = self.texture(label, set)?.sample(uv_in);
+                let (texture, transform) = self.texture(label, set)?;
+                let want = texture.sample(transform.apply(uv_in));
                 Some([0, 1, 2, 3].map(|c| (got[c] - want[c]).abs()))
             })
             .collect();
@@ -555,5 +624,29 @@ fn decode(look: &Appearance, i: usize, notes: &mut Vec<String>) -> Option<Textur
             notes.push(format!("image {i} cannot be decoded: {e}"));
             None
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::UvTransform;
+
+    #[test]
+    fn texture_transform_scales_rotates_then_offsets() {
+        let ext = serde_json::json!({
+            "offset": [0.5, 0.25],
+            "rotation": std::f64::consts::FRAC_PI_2,
+            "scale": [2.0, 3.0]
+        });
+        let t = UvTransform::parse(&ext);
+        // (1, 1) → scaled (2, 3) → rotated a quarter turn (−3, 2) → offset.
+        let [u, v] = t.apply([1.0, 1.0]);
+        assert!(
+            (u + 2.5).abs() < 1e-12 && (v - 2.25).abs() < 1e-12,
+            "{u} {v}"
+        );
+        let bad = serde_json::json!({"offset": [1.0], "rotation": "x", "scale": [1.0, null]});
+        assert_eq!(UvTransform::parse(&bad), UvTransform::default());
+        assert_eq!(UvTransform::default().apply([0.3, 0.7]), [0.3, 0.7]);
     }
 }

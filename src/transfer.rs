@@ -237,17 +237,35 @@ impl SourceAttributes {
     /// The attributes at `v`, read on the side of `inside`, a point of the
     /// wedge's face whose normal is `normal` and whose label is `label`.
     pub fn value_at(&self, v: DVec3, inside: DVec3, normal: DVec3, label: u32) -> Vec<f32> {
+        self.lookup(v, inside, normal, label).0
+    }
+
+    /// [`Self::value_at`], with the kept input face the value was read on
+    /// (`None` when the input has no face to read).
+    pub fn lookup(
+        &self,
+        v: DVec3,
+        inside: DVec3,
+        normal: DVec3,
+        label: u32,
+    ) -> (Vec<f32>, Option<u32>) {
         let Some(start) = self.start(inside, normal, label) else {
-            return vec![0.0; self.width];
+            return (vec![0.0; self.width], None);
         };
         let (face, bary) = self.walk(start.face, v);
         let base = 3 * face as usize * self.width;
-        (0..self.width)
+        let values = (0..self.width)
             .map(|i| {
                 let c = |k: usize| f64::from(self.corner_values[base + k * self.width + i]);
                 (bary.x * c(0) + bary.y * c(1) + bary.z * c(2)) as f32
             })
-            .collect()
+            .collect();
+        (values, Some(face))
+    }
+
+    /// The signed UV area, in set `set`, of kept input face `face`.
+    pub fn face_uv_area(&self, face: u32, set: usize) -> f64 {
+        uv_area(&self.corner_values, self.width, face, set)
     }
 
     /// The input face where a lookup for a face of label `label` with

@@ -75,26 +75,49 @@ struct Texcoords<'a> {
     sets: usize,
     /// Per vertex, `2 * sets` floats; meaningful for free vertices only.
     cache: Vec<f32>,
+    /// Per vertex, the input face its value was read on ([`NO_FACE`] for
+    /// none or a vertex on a feature line).
+    faces: Vec<u32>,
+}
+
+/// No input face.
+const NO_FACE: u32 = u32::MAX;
+
+/// Texture coordinates read at a point, and the input face they were read
+/// on.
+struct Sample {
+    uv: Vec<f32>,
+    face: u32,
 }
 
 impl<'a> Texcoords<'a> {
     fn new(st: &State, attrs: &'a SourceAttributes) -> Self {
         let sets = attrs.layout().texcoords.len();
         let m = &st.mesh;
-        let cache: Vec<f32> = st.pool.install(|| {
+        let samples: Vec<Sample> = st.pool.install(|| {
             (0..m.vertex_capacity() as u32)
                 .into_par_iter()
-                .flat_map_iter(|vi| {
+                .map(|vi| {
                     let v = VertexId(vi);
                     if m.is_vertex_deleted(v) || st.kind[v.idx()] != SMOOTH {
-                        return vec![0.0; 2 * sets];
+                        return Sample {
+                            uv: vec![0.0; 2 * sets],
+                            face: NO_FACE,
+                        };
                     }
                     let label = vertex_label(st, v);
                     Self::sample(attrs, sets, m.position(v), vertex_normal(st, v), label)
                 })
                 .collect()
         });
-        Self { attrs, sets, cache }
+        let faces = samples.iter().map(|x| x.face).collect();
+        let cache = samples.into_iter().flat_map(|x| x.uv).collect();
+        Self {
+            attrs,
+            sets,
+            cache,
+            faces,
+        }
     }
 
     /// The texture coordinates at `p`, read on the side of a face through
@@ -105,22 +128,27 @@ impl<'a> Texcoords<'a> {
         p: DVec3,
         normal: DVec3,
         label: u32,
-    ) -> Vec<f32> {
-        let mut v = attrs.value_at(p, p, normal, label);
-        v.truncate(2 * sets);
-        v
+    ) -> Sample {
+        let (mut uv, face) = attrs.lookup(p, p, normal, label);
+        uv.truncate(2 * sets);
+        Sample {
+            uv,
+            face: face.unwrap_or(NO_FACE),
+        }
     }
 
     /// Stores `value`, the texture coordinates that an edit checked its
     /// faces with, for free vertex `v` (new or moved): the cache then
     /// agrees with the checks exactly.
-    fn set(&mut self, st: &State, v: VertexId, value: &[f32]) {
-        let w = 2 * self.sets;
-        if self.cache.len() < w * st.mesh.vertex_capacity() {
-            self.cache.resize(w * st.mesh.vertex_capacity(), 0.0);
+    fn set(&mut self, st: &State, v: VertexId, value: &Sample) {
+        let (w, n) = (2 * self.sets, st.mesh.vertex_capacity());
+        if self.faces.len() < n {
+            self.cache.resize(w * n, 0.0);
+            self.faces.resize(n, NO_FACE);
         }
         if st.kind[v.idx()] == SMOOTH {
-            self.cache[w * v.idx()..][..w].copy_from_slice(value);
+            self.cache[w * v.idx()..][..w].copy_from_slice(&value.uv);
+            self.faces[v.idx()] = value.face;
         }
     }
 
@@ -134,32 +162,48 @@ impl<'a> Texcoords<'a> {
         st: &State,
         vs: [VertexId; 3],
         p: [DVec3; 3],
-        moved: Option<(VertexId, &[f32])>,
+        moved: Option<(VertexId, &Sample)>,
         label: u32,
     ) -> bool {
+        use std::borrow::Cow;
         let g = (p[0] + p[1] + p[2]) / 3.0;
         let n = (p[1] - p[0]).cross(p[2] - p[0]);
         let w = 2 * self.sets;
-        let corner: Vec<std::borrow::Cow<[f32]>> = (0..3)
+        let corner: Vec<(Cow<[f32]>, u32)> = (0..3)
             .map(|k| match moved {
-                Some((mv, uv)) if mv == vs[k] => std::borrow::Cow::Borrowed(uv),
-                _ if st.kind[vs[k].idx()] == SMOOTH => {
-                    std::borrow::Cow::Borrowed(&self.cache[w * vs[k].idx()..][..w])
+                Some((mv, x)) if mv == vs[k] => (Cow::Borrowed(&x.uv[..]), x.face),
+                _ if st.kind[vs[k].idx()] == SMOOTH => (
+                    Cow::Borrowed(&self.cache[w * vs[k].idx()..][..w]),
+                    self.faces[vs[k].idx()],
+                ),
+                _ => {
+                    let (uv, face) = self.attrs.lookup(p[k], g, n, label);
+                    (Cow::Owned(uv), face.unwrap_or(NO_FACE))
                 }
-                _ => std::borrow::Cow::Owned(self.attrs.value_at(p[k], g, n, label)),
             })
             .collect();
         (0..self.sets).all(|s| {
-            let uv = |k: usize, c: usize| f64::from(corner[k][2 * s + c]);
+            let uv = |k: usize, c: usize| f64::from(corner[k].0[2 * s + c]);
             let a = 0.5
                 * ((uv(1, 0) - uv(0, 0)) * (uv(2, 1) - uv(0, 1))
                     - (uv(2, 0) - uv(0, 0)) * (uv(1, 1) - uv(0, 1)));
             if a.abs() < UV_DEGENERATE_AREA {
                 return false;
             }
-            self.attrs
-                .uv_orientation_at(g, n, s, label)
-                .is_none_or(|r| r.abs() < UV_DEGENERATE_AREA || r * a > 0.0)
+            // Where the three input faces read agree with the triangle's
+            // orientation, the input under its centroid almost always does
+            // too; only the others pay for the query under the centroid.
+            let agree = corner.iter().all(|&(_, f)| {
+                f != NO_FACE && {
+                    let r = self.attrs.face_uv_area(f, s);
+                    r.abs() >= UV_DEGENERATE_AREA && r * a > 0.0
+                }
+            });
+            agree
+                || self
+                    .attrs
+                    .uv_orientation_at(g, n, s, label)
+                    .is_none_or(|r| r.abs() < UV_DEGENERATE_AREA || r * a > 0.0)
         })
     }
 
@@ -355,7 +399,7 @@ fn move_vertex(
     let ring: Vec<DVec3> = m.outgoing(v).map(|h| m.position(m.to_vertex(h))).collect();
     let centroid = ring.iter().sum::<DVec3>() / ring.len() as f64;
     let slack = out_of_band(st, v, p) + SHAPE_BAND_SLACK;
-    let mut best: Option<(f64, crate::bvh::ClosestPoint, Vec<f32>)> = None;
+    let mut best: Option<(f64, crate::bvh::ClosestPoint, Sample)> = None;
     for (target, t) in [
         (apex, 0.25),
         (apex, 0.5),
@@ -407,7 +451,7 @@ fn stretches(st: &State, v: VertexId, p: DVec3) -> bool {
 
 /// Whether every face around `v`, with `v` at `p` and texture coordinates
 /// `here`, is valid in texture space.
-fn ring_valid(st: &State, uv: &Texcoords, v: VertexId, p: DVec3, here: &[f32]) -> bool {
+fn ring_valid(st: &State, uv: &Texcoords, v: VertexId, p: DVec3, here: &Sample) -> bool {
     let m = &st.mesh;
     m.outgoing(v)
         .filter(|&h| !m.is_boundary_halfedge(h))
@@ -473,7 +517,7 @@ fn collapse_edge_of(st: &mut State, uv: &mut Texcoords, f: FaceId) -> Option<Vec
     };
     hs.sort_by(|&x, &y| len(x).total_cmp(&len(y)));
     // The kept vertex's texture coordinates as the accepted check saw them.
-    let chosen = std::cell::RefCell::new(Vec::new());
+    let chosen = std::cell::RefCell::new(None);
     let accept = |st: &State, kept: VertexId, p: DVec3, faces: &[([VertexId; 3], FaceId)]| {
         let m = &st.mesh;
         let here = (st.kind[kept.idx()] == SMOOTH).then(|| {
@@ -486,24 +530,17 @@ fn collapse_edge_of(st: &mut State, uv: &mut Texcoords, f: FaceId) -> Option<Vec
         });
         let ok = faces.iter().all(|&(t, f)| {
             let p3 = [p, m.position(t[1]), m.position(t[2])];
-            uv.valid(
-                st,
-                t,
-                p3,
-                here.as_deref().map(|s| (kept, s)),
-                m.face_label[f],
-            )
+            uv.valid(st, t, p3, here.as_ref().map(|s| (kept, s)), m.face_label[f])
         });
         if ok {
-            *chosen.borrow_mut() = here.unwrap_or_default();
+            *chosen.borrow_mut() = here;
         }
         ok
     };
     for h in hs {
         for h in [h, h.twin()] {
             if let Some(kept) = collapse_guarded(st, h, accept) {
-                let here = chosen.take();
-                if !here.is_empty() {
+                if let Some(here) = chosen.take() {
                     uv.set(st, kept, &here);
                 }
                 return Some(ring_faces(st, kept));

@@ -9,7 +9,9 @@
 //! projection onto the input surface or its feature lines; after the last
 //! iteration a sliver repair flips the longest edge of triangles still below
 //! 30° where that helps, moves their vertices to where their one-ring's
-//! smallest angle is largest, and flips once more. Topology lives
+//! smallest angle is largest, and flips once more; on an input with texture
+//! coordinates, a texture-space guard then mends the faces that the
+//! attribute transfer would fold in UV space (`uv.rs`). Topology lives
 //! in [`crate::mesh`]; this module only decides *which* edges and vertices to
 //! change. One pass per file: `split.rs`, `collapse.rs`, `flip.rs`,
 //! `relax.rs` (relaxation and projection share the guarded move in

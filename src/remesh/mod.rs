@@ -268,9 +268,13 @@ pub struct RemeshReport {
 pub struct UvRepairReport {
     /// Faces invalid in texture space before the guard.
     pub found: u64,
+    /// Of those, faces over input that is itself degenerate in texture
+    /// space (a region mapped to a point or a line), left alone.
+    #[serde(default)]
+    pub inherited: u64,
     /// Moves, flips and collapses it made.
     pub edits: u64,
-    /// Faces still invalid after it.
+    /// Faces still invalid after it, the inherited ones included.
     pub left: u64,
 }
 
@@ -390,6 +394,7 @@ fn run(
         let r = timed(&mut report.seconds.repair, || uv::untangle(&mut st, attrs))?;
         report.uv_repair = UvRepairReport {
             found: r.found,
+            inherited: r.inherited,
             edits: r.edits,
             left: r.left,
         };

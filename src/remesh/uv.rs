@@ -60,9 +60,12 @@ const FLIP_STRETCH: f64 = 1.5;
 pub(super) struct UvRepair {
     /// Faces invalid in texture space before the pass.
     pub found: u64,
+    /// Of those, faces over input that is itself degenerate in texture
+    /// space, which the pass leaves alone.
+    pub inherited: u64,
     /// Edits made (moves, flips and collapses).
     pub edits: u64,
-    /// Faces still invalid after it.
+    /// Faces still invalid after it, the inherited ones included.
     pub left: u64,
 }
 
@@ -207,6 +210,20 @@ impl<'a> Texcoords<'a> {
         })
     }
 
+    /// Whether the input face under the centroid of `f` is degenerate in
+    /// some texture coordinate set.
+    fn over_degenerate_input(&self, st: &State, f: FaceId) -> bool {
+        let p = st.mesh.face_positions(f);
+        let g = (p[0] + p[1] + p[2]) / 3.0;
+        let n = (p[1] - p[0]).cross(p[2] - p[0]);
+        let label = st.mesh.face_label[f];
+        (0..self.sets).any(|s| {
+            self.attrs
+                .uv_orientation_at(g, n, s, label)
+                .is_some_and(|r| r.abs() < UV_DEGENERATE_AREA)
+        })
+    }
+
     fn face_valid(&self, st: &State, f: FaceId) -> bool {
         let vs = st.mesh.face_vertices(f);
         let label = st.mesh.face_label[f];
@@ -252,8 +269,13 @@ pub(super) fn untangle(st: &mut State, attrs: &SourceAttributes) -> Result<UvRep
         })
     };
     let mut bad = bad_faces(st, &uv, None);
+    let found = bad.len() as u64;
+    // Faces over input that is itself degenerate in texture space cannot
+    // be mended by moving the output: they are counted, and left alone.
+    bad.retain(|&f| !uv.over_degenerate_input(st, FaceId(f)));
     let mut report = UvRepair {
-        found: bad.len() as u64,
+        found,
+        inherited: found - bad.len() as u64,
         ..UvRepair::default()
     };
     for _ in 0..MAX_ROUNDS {
@@ -284,7 +306,7 @@ pub(super) fn untangle(st: &mut State, attrs: &SourceAttributes) -> Result<UvRep
             break;
         }
     }
-    report.left = bad.len() as u64;
+    report.left = bad.len() as u64 + report.inherited;
     Ok(report)
 }
 

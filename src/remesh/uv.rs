@@ -108,8 +108,7 @@ impl<'a> Texcoords<'a> {
                             face: NO_FACE,
                         };
                     }
-                    let label = vertex_label(st, v);
-                    Self::sample(attrs, sets, m.position(v), vertex_normal(st, v), label)
+                    ring_sample(st, attrs, sets, v, m.position(v))
                 })
                 .collect()
         });
@@ -123,16 +122,21 @@ impl<'a> Texcoords<'a> {
         }
     }
 
-    /// The texture coordinates at `p`, read on the side of a face through
-    /// `p` with normal `normal` and label `label`.
+    /// The texture coordinates at `p`, read as the transfer reads them for
+    /// a corner of face `face` (its corners, `p` among them; its label
+    /// `label`): from the input face nearest the face's centroid, walking
+    /// within its chart toward `p`. Starting at `p` itself could begin
+    /// across a seam that runs close to `p`.
     fn sample(
         attrs: &SourceAttributes,
         sets: usize,
         p: DVec3,
-        normal: DVec3,
+        face: [DVec3; 3],
         label: u32,
     ) -> Sample {
-        let (mut uv, face) = attrs.lookup(p, p, normal, label);
+        let inside = (face[0] + face[1] + face[2]) / 3.0;
+        let normal = (face[1] - face[0]).cross(face[2] - face[0]);
+        let (mut uv, face) = attrs.lookup(p, inside, normal, label);
         uv.truncate(2 * sets);
         Sample {
             uv,
@@ -231,23 +235,25 @@ impl<'a> Texcoords<'a> {
     }
 }
 
-/// The label of one of `v`'s faces (a free vertex is inside one label).
-fn vertex_label(st: &State, v: VertexId) -> u32 {
+/// The texture coordinates of free vertex `v` placed at `p`, read for the
+/// first face of its ring (a free vertex lies inside one chart and one
+/// label, so any ring face gives the same value).
+fn ring_sample(st: &State, attrs: &SourceAttributes, sets: usize, v: VertexId, p: DVec3) -> Sample {
     let m = &st.mesh;
-    m.outgoing(v)
-        .map(|h| m.face(h))
-        .find(|f| f.is_valid())
-        .map_or(0, |f| m.face_label[f])
-}
-
-/// The area-weighted normal of `v`'s faces.
-fn vertex_normal(st: &State, v: VertexId) -> DVec3 {
-    let m = &st.mesh;
-    let p = m.position(v);
-    m.outgoing(v)
-        .filter(|&h| !m.is_boundary_halfedge(h))
-        .map(|h| (m.position(m.to_vertex(h)) - p).cross(m.position(m.to_vertex(m.next(h))) - p))
-        .sum()
+    match m.outgoing(v).find(|&h| !m.is_boundary_halfedge(h)) {
+        Some(h) => {
+            let corners = [
+                p,
+                m.position(m.to_vertex(h)),
+                m.position(m.to_vertex(m.next(h))),
+            ];
+            Texcoords::sample(attrs, sets, p, corners, m.face_label[m.face(h)])
+        }
+        None => Sample {
+            uv: vec![0.0; 2 * sets],
+            face: NO_FACE,
+        },
+    }
 }
 
 /// Mends the faces of `st` that are invalid in texture space. Returns what
@@ -355,9 +361,8 @@ fn split_edge_of(st: &mut State, uv: &mut Texcoords, f: FaceId) -> Option<Vec<u3
             continue;
         }
         let p = cp.point;
-        let up = st.input_normals[cp.face as usize];
         let (l0, l1) = (m.face_label[m.face(h)], m.face_label[m.face(h.twin())]);
-        let here = Texcoords::sample(uv.attrs, uv.sets, p, up, l0);
+        let here = Texcoords::sample(uv.attrs, uv.sets, p, [m.position(a), p, m.position(c)], l0);
         // The new vertex is not in the mesh yet: a stand-in id that no
         // vertex has, whose coordinates `here` supplies.
         let nv = VertexId(u32::MAX);
@@ -446,7 +451,7 @@ fn move_vertex(
         if best.as_ref().is_some_and(|b| b.0 >= score) {
             continue;
         }
-        let here = Texcoords::sample(uv.attrs, uv.sets, cp.point, up, vertex_label(st, v));
+        let here = ring_sample(st, uv.attrs, uv.sets, v, cp.point);
         if ring_valid(st, uv, v, cp.point, &here) {
             best = Some((score, cp, here));
         }
@@ -543,12 +548,9 @@ fn collapse_edge_of(st: &mut State, uv: &mut Texcoords, f: FaceId) -> Option<Vec
     let accept = |st: &State, kept: VertexId, p: DVec3, faces: &[([VertexId; 3], FaceId)]| {
         let m = &st.mesh;
         let here = (st.kind[kept.idx()] == SMOOTH).then(|| {
-            let n: DVec3 = faces
-                .iter()
-                .map(|(t, _)| (m.position(t[1]) - p).cross(m.position(t[2]) - p))
-                .sum();
-            let label = faces.first().map_or(0, |&(_, f)| m.face_label[f]);
-            Texcoords::sample(uv.attrs, uv.sets, p, n, label)
+            let (t, f) = faces.first().copied().unwrap_or(([kept; 3], FaceId(0)));
+            let corners = [p, m.position(t[1]), m.position(t[2])];
+            Texcoords::sample(uv.attrs, uv.sets, p, corners, m.face_label[f])
         });
         let ok = faces.iter().all(|&(t, f)| {
             let p3 = [p, m.position(t[1]), m.position(t[2])];

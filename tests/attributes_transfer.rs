@@ -215,6 +215,35 @@ fn a_shear_finer_than_the_output_folds_no_triangle() {
     assert_eq!(uv.seam_edges_out, 0, "{uv:?}");
 }
 
+/// A cube whose top maps to one texel point: the output's top faces have
+/// no UV area, and the statistics and the texture-space guard say that the
+/// input made them so, instead of trying to mend them.
+#[test]
+fn faces_over_a_point_of_texture_space_are_inherited() {
+    let cube = shapes::cube(6, DVec3::splat(-0.5), DVec3::splat(0.5));
+    let png = checker_png();
+    let glb = textured_glb(
+        &cube,
+        |p| {
+            let n = (p[1] - p[0]).cross(p[2] - p[0]);
+            if n.z > 0.0 && n.x.abs() + n.y.abs() < 1e-9 {
+                return [[0.5, 0.5]; 3];
+            }
+            let axis = n.abs().max_position();
+            let (i, j) = ((axis + 1) % 3, (axis + 2) % 3);
+            p.map(|q| [(q[i] + 0.5) as f32 * 0.3, (q[j] + 0.5) as f32 * 0.3])
+        },
+        &png,
+    );
+    let job = remesh(&glb);
+    let uv = &job.stats.attributes.texcoords[0];
+    let guard = job.report.uv_repair;
+    assert!(uv.uv_degenerate > 0, "{uv:?}");
+    assert_eq!(uv.uv_degenerate_inherited, uv.uv_degenerate, "{uv:?}");
+    assert_eq!(guard.inherited, guard.found, "{guard:?}");
+    assert_eq!(guard.edits, 0, "{guard:?}");
+}
+
 #[test]
 fn vertex_colours_alone_are_transferred() {
     let mut sphere = shapes::icosphere(4);

@@ -86,6 +86,11 @@ pub struct TexcoordStats {
     pub uv_flipped: u64,
     /// Output triangles with (almost) no UV area.
     pub uv_degenerate: u64,
+    /// Of `uv_degenerate`, the triangles over an input face that is itself
+    /// UV-degenerate (the input maps that region to a point or a line), so
+    /// that no placement of the output could give them UV area.
+    #[serde(default)]
+    pub uv_degenerate_inherited: u64,
     /// L2 texture stretch of the input.
     pub stretch_l2_in: f64,
     /// L2 texture stretch of the output.
@@ -144,7 +149,8 @@ pub fn compute(
         let (seams_in, len_in) = seam_segments(input, &welded_in, set);
         let (seams_out, _) = seam_segments(output, &welded_out, set);
         let (within, max_d) = seam_fidelity(&seams_in, &seams_out, l);
-        let (charts, flipped, degenerate) = orientation(output, &welded_out, set, source);
+        let (charts, flipped, degenerate, inherited) =
+            orientation(output, &welded_out, set, source);
         let color_error = source.and_then(|s| textures.error(input, s, output, set));
         stats.texcoords.push(TexcoordStats {
             set: set as u32,
@@ -156,6 +162,7 @@ pub fn compute(
             charts_out: charts,
             uv_flipped: flipped,
             uv_degenerate: degenerate,
+            uv_degenerate_inherited: inherited,
             stretch_l2_in: stretch(input, set),
             stretch_l2_out: stretch(output, set),
             color_error,
@@ -295,15 +302,16 @@ fn uv_area(uv: &[[f32; 2]], t: [u32; 3]) -> f64 {
     0.5 * (p[1] - p[0]).perp_dot(p[2] - p[0])
 }
 
-/// (charts, UV-flipped triangles, UV-degenerate triangles) of set `set`:
-/// flipped against the input's orientation at the centroid when `source`
-/// is given, else against the chart's majority.
+/// (charts, UV-flipped triangles, UV-degenerate triangles, degenerate
+/// ones over UV-degenerate input) of set `set`: flipped against the
+/// input's orientation at the centroid when `source` is given, else
+/// against the chart's majority (and then nothing counts as inherited).
 fn orientation(
     m: &TriMesh,
     w: &Welded,
     set: usize,
     source: Option<&SourceAttributes>,
-) -> (u64, u64, u64) {
+) -> (u64, u64, u64, u64) {
     let faces = &w.faces;
     let mut uf = crate::topology::UnionFind::new(faces.len());
     for &h in &w.twins {
@@ -327,6 +335,22 @@ fn orientation(
             v.1 += 1;
         }
     }
+    // The input's signed UV area under the centroid of welded face `i`.
+    let under = |src: &SourceAttributes, i: usize| {
+        let q = m.corner_positions(&faces[i].1);
+        let c = (q[0] + q[1] + q[2]) / 3.0;
+        let n = (q[1] - q[0]).cross(q[2] - q[0]);
+        src.uv_orientation_at(c, n, set, w.labels[i])
+    };
+    let inherited = source.map_or(0, |src| {
+        (0..faces.len())
+            .into_par_iter()
+            .filter(|&i| {
+                areas[i].abs() < UV_DEGENERATE_AREA
+                    && under(src, i).is_some_and(|r| r.abs() < UV_DEGENERATE_AREA)
+            })
+            .count() as u64
+    });
     let flipped = match source {
         Some(src) => faces
             .par_iter()
@@ -344,7 +368,7 @@ fn orientation(
             .count() as u64,
         None => votes.values().map(|&(p, n)| p.min(n)).sum(),
     };
-    (votes.len() as u64, flipped, degenerate)
+    (votes.len() as u64, flipped, degenerate, inherited)
 }
 
 /// The normalised L2 stretch of set `set` over `m`'s faces.

@@ -333,11 +333,9 @@ fn mend(st: &mut State, uv: &mut Texcoords, f: FaceId) -> Option<Vec<u32>> {
     split_edge_of(st, uv, f)
 }
 
-/// Splits the longest edge of bad face `f` that is not a feature at the
-/// input point nearest its midpoint, when fewer of the new faces than of
-/// the old pair are invalid in texture space: smaller triangles follow a
-/// strongly bent texture map more closely.
-fn split_edge_of(st: &mut State, uv: &mut Texcoords, f: FaceId) -> Option<Vec<u32>> {
+/// The half-edges of face `f`, shortest first, or longest first when
+/// `longest_first` (a stable sort either way, so ties keep face order).
+fn by_length(st: &State, f: FaceId, longest_first: bool) -> [HalfedgeId; 3] {
     let m = &st.mesh;
     let h0 = m.face_halfedge(f);
     let mut hs = [h0, m.next(h0), m.next(m.next(h0))];
@@ -345,7 +343,21 @@ fn split_edge_of(st: &mut State, uv: &mut Texcoords, f: FaceId) -> Option<Vec<u3
         m.position(m.to_vertex(h))
             .distance_squared(m.position(m.from_vertex(h)))
     };
-    hs.sort_by(|&x, &y| len(y).total_cmp(&len(x)));
+    if longest_first {
+        hs.sort_by(|&x, &y| len(y).total_cmp(&len(x)));
+    } else {
+        hs.sort_by(|&x, &y| len(x).total_cmp(&len(y)));
+    }
+    hs
+}
+
+/// Splits the longest edge of bad face `f` that is not a feature at the
+/// input point nearest its midpoint, when fewer of the new faces than of
+/// the old pair are invalid in texture space: smaller triangles follow a
+/// strongly bent texture map more closely.
+fn split_edge_of(st: &mut State, uv: &mut Texcoords, f: FaceId) -> Option<Vec<u32>> {
+    let m = &st.mesh;
+    let hs = by_length(st, f, true);
     for h in hs {
         let e = h.edge();
         if st.line_of(e).is_some() || m.is_boundary_edge(e) || m.edge_has_flag(e, EDGE_FROZEN) {
@@ -535,14 +547,7 @@ fn flip_edge_of(st: &mut State, uv: &Texcoords, f: FaceId) -> Option<Vec<u32>> {
 /// allow, when every face around the kept vertex is then valid in texture
 /// space.
 fn collapse_edge_of(st: &mut State, uv: &mut Texcoords, f: FaceId) -> Option<Vec<u32>> {
-    let m = &st.mesh;
-    let h0 = m.face_halfedge(f);
-    let mut hs = [h0, m.next(h0), m.next(m.next(h0))];
-    let len = |h: HalfedgeId| {
-        m.position(m.to_vertex(h))
-            .distance_squared(m.position(m.from_vertex(h)))
-    };
-    hs.sort_by(|&x, &y| len(x).total_cmp(&len(y)));
+    let hs = by_length(st, f, false);
     // The kept vertex's texture coordinates as the accepted check saw them.
     let chosen = std::cell::RefCell::new(None);
     let accept = |st: &State, kept: VertexId, p: DVec3, faces: &[([VertexId; 3], FaceId)]| {

@@ -63,6 +63,7 @@ static ASSETS: &[Asset] = &[
     asset!("viewer.js", JS),
     asset!("meshes.js", JS),
     asset!("quality.js", JS),
+    asset!("lod.js", JS),
     asset!("plots.js", JS),
     asset!("vendor/three/LICENSE", "text/plain; charset=utf-8"),
     asset!("vendor/three/build/three.module.js", JS),

@@ -1,7 +1,7 @@
 // Drives the web page in the system Chromium with playwright-core, as a
 // person would. Run by tests/web_page.rs, which starts the server:
 //
-//   node page.mjs flow       BASE_URL OUT_DIR DATA_DIR
+//   node page.mjs flow       BASE_URL OUT_DIR DATA_DIR TEXTURED_OBJ_DIR
 //   node page.mjs frame-time BASE_URL OUT_DIR MESH_FILE
 //
 // Chromium comes from CHROMIUM (default /usr/bin/chromium); playwright never
@@ -14,7 +14,7 @@ import { readFile, writeFile, mkdir } from 'node:fs/promises';
 import path from 'node:path';
 import { chromium } from 'playwright-core';
 
-const [scenario, base, outDir, arg] = process.argv.slice(2);
+const [scenario, base, outDir, arg, arg2] = process.argv.slice(2);
 const JOB_TIMEOUT = 240_000;
 
 async function launch() {
@@ -107,6 +107,8 @@ function differing(a, b) {
 }
 
 async function shot(page, name) {
+  // A heavy mesh is first drawn through its stand-in: wait for the full frame.
+  await page.waitForFunction(() => !['quick', 'refining'].includes(document.getElementById('canvas').dataset.frame), null, { timeout: JOB_TIMEOUT });
   await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
   const png = await page.locator('#canvas').screenshot();
   await writeFile(path.join(outDir, name), png);
@@ -262,6 +264,23 @@ async function flow() {
     assert.equal(job.status, 'succeeded', JSON.stringify(job.error));
     assert.deepEqual(job.input.buffers, ['BoxTextured0.bin', 'CesiumLogoFlat.png']);
 
+    // An OBJ with its material library and texture, chosen together (and a
+    // stray file, which stays behind): the texture shows before and after,
+    // and the OBJ download is a zip that holds the .mtl and the image.
+    const tex = arg2;
+    await select(page, 'output_format', 'obj');
+    job = await remesh(page, [path.join(tex, 'spot.obj'), path.join(tex, 'spot.mtl'), path.join(tex, 'checker.png'), path.join(data, 'cube.obj')]);
+    assert.equal(job.status, 'succeeded', JSON.stringify(job.error));
+    assert.deepEqual([...job.input.buffers].sort(), ['checker.png', 'spot.mtl']);
+    const spotTex = await shot(page, 'textured-obj.png');
+    assert.ok(spotTex.left.yellow > 0.01, `the OBJ's texture is not visible before: ${JSON.stringify(spotTex.left)}`);
+    assert.ok(spotTex.right.yellow > 0.01, `the OBJ's texture is not visible after: ${JSON.stringify(spotTex.right)}`);
+    const zip = await download(page, 'obj-zip');
+    assert.equal(zip.subarray(0, 2).toString(), 'PK', 'the OBJ bundle is not a zip');
+    for (const name of ['.obj', '.mtl', 'checker.png']) assert.ok(zip.includes(name), `the OBJ bundle has no ${name}`);
+    result.textured_obj = { triangles: job.result.triangles, parts: job.input.buffers };
+    await select(page, 'output_format', '');
+
     // Cancel a long job while it is queued or running.
     await page.setInputFiles('#files', [path.join(data, 'spot.obj')]);
     await page.check('input[name=target_kind][value=target_faces]');
@@ -319,7 +338,15 @@ async function frameTime() {
       assert.ok(px.left.drawn > 0.05 && px.right.drawn > 0.05, `${display}/${colour}: a side is blank`);
       if (colour === 'ratio') assert.ok(px.right.green > 0.05, 'the remeshed torus is not mostly in band');
       const t = await page.evaluate(() => window.isoremesh.viewer.timeFrames(5));
-      out[`${display}_${colour}`] = { ...t, mode_switch_ms: switch_ms };
+      assert.ok(t.proxy_triangles.after > 1000 && t.proxy_triangles.after < 200_000, `stand-in of ${t.proxy_triangles.after} triangles`);
+      assert.ok(t.slices.count > 1, 'the full frame was not drawn in slices');
+      // The sliced frame is the full frame (up to the canvas's antialiasing).
+      const refined = await shot(page, `torus-${display}-${colour}-refined.png`);
+      await page.evaluate(() => window.isoremesh.viewer.draw());
+      const direct = await shot(page, `torus-${display}-${colour}-direct.png`);
+      const differ = differing(refined, direct);
+      assert.ok(differ < 0.03, `${display}/${colour}: the sliced frame differs from the direct one in ${differ} of the pixels`);
+      out[`${display}_${colour}`] = { ...t, mode_switch_ms: switch_ms, refined_vs_direct: differ };
     }
     assert.deepEqual(problems, []);
     return out;

@@ -4,7 +4,7 @@
 
 import * as api from './api.js';
 import { Viewer } from './viewer.js';
-import { loadInput, loadResult, mainFile, extension, gltfBufferUris } from './meshes.js';
+import { loadInput, loadResult, mainFile, extension, gltfBufferUris, objCompanions } from './meshes.js';
 import { plots, tables } from './plots.js';
 import { legend } from './quality.js';
 
@@ -133,6 +133,8 @@ $('params').addEventListener('submit', async (e) => {
     if (extension(main.name) === 'gltf') {
       const uris = await gltfBufferUris(main);
       extra = state.files.filter((f) => f !== main && uris.includes(f.name));
+    } else if (extension(main.name) === 'obj') {
+      extra = await objCompanions(main, state.files);
     }
     $('submit').disabled = true;
     setStatus('Uploading…');

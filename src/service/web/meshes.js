@@ -29,6 +29,45 @@ export async function gltfBufferUris(file) {
     .map((u) => baseName(u));
 }
 
+/**
+ * The companions of an OBJ among `files`: the material libraries its
+ * `mtllib` lines name, and the texture maps those libraries name in the
+ * statements the server carries (as `io::companions` reads them). The API
+ * refuses a part that the model does not name, so only these are sent.
+ */
+export async function objCompanions(main, files) {
+  const byName = new Map(files.filter((f) => f !== main).map((f) => [f.name, f]));
+  const out = [];
+  const take = (name) => {
+    const f = byName.get(baseName(name));
+    if (f && !out.includes(f)) out.push(f);
+    return f;
+  };
+  const libraries = (await main.text())
+    .split('\n')
+    .map((l) => l.trim())
+    .filter((l) => /^mtllib\s/.test(l))
+    .flatMap((l) => {
+      const rest = l.slice(6).trim();
+      const words = rest.split(/\s+/);
+      return words.length > 1 && words.every((w) => /\.mtl$/i.test(w)) ? words : [rest];
+    });
+  for (const name of libraries) {
+    const mtl = take(name);
+    if (!mtl) continue;
+    for (const line of (await mtl.text()).split('\n')) {
+      const words = line.trim().split(/\s+/);
+      if (!CARRIED_MAPS.includes(words[0]) || words.length < 2) continue;
+      // Options come first; the file name is the last word (or words).
+      for (let k = words.length - 1; k >= 1; k--) if (take(words.slice(k).join(' '))) break;
+    }
+  }
+  return out;
+}
+
+// The map statements whose textures the server carries into the result.
+const CARRIED_MAPS = ['map_Kd', 'map_Bump', 'map_bump', 'bump', 'norm', 'map_Ke'];
+
 const baseName = (url) => decodeURIComponent(url.split(/[\\/]/).pop().split(/[?#]/)[0]);
 
 /** A loading manager that resolves relative names to the given files. */

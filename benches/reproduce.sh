@@ -186,6 +186,8 @@ usage: benches/reproduce.sh <name> [arguments]
                                gpytoolbox on igea, the bunny and camelhead
   hard-edges [PEERS.PY OPTIONS] ours with --features angle, normals and both on the
                                product files, the Duck and 2CylinderEngine
+  normals [PEERS.PY OPTIONS]   ours with --normals recompute and transfer on the
+                               product files, the Duck and 2CylinderEngine
   engine [PEERS.PY OPTIONS]    2CylinderEngine: every tool, the builder's repairs, the
                                welded topology, and the rod of tests/remesh_anisotropic.rs
 
@@ -217,6 +219,17 @@ hard-edges)
         python3 "$SHARED/bench/peers.py" "$MESHES/products" "$MESHES/gltf/Duck.glb" \
             "$MESHES/gltf/2CylinderEngine.glb" --tools '' \
             --ours "target/release/isoremesh $OURS_ARGS --features $fs" "$@"
+    done
+    ;;
+normals)
+    # Normals recomputed, and transferred from the input (whose hard edges
+    # then become seams), on the glTF files.
+    build_release
+    for ns in recompute transfer; do
+        echo "## normals: $ns"
+        python3 "$SHARED/bench/peers.py" "$MESHES/products" "$MESHES/gltf/Duck.glb" \
+            "$MESHES/gltf/2CylinderEngine.glb" --tools '' \
+            --ours "target/release/isoremesh $OURS_ARGS --normals $ns" "$@"
     done
     ;;
 textured)

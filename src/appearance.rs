@@ -28,6 +28,12 @@ pub struct VertexAttributes {
     /// never stored or transferred.
     #[serde(default)]
     pub tangents: bool,
+    /// Shading normals carried as an attribute, so that the remesh samples
+    /// them like the others (`normals: "transfer"`); empty otherwise.
+    /// Readers leave them in [`crate::TriMesh::normals`]: the pipeline
+    /// copies them here for a transfer and back after it.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub normals: Vec<[f32; 3]>,
     /// What the reader found but does not carry (skins, morph targets,
     /// further colour sets), so that a job can name it.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -46,14 +52,24 @@ pub struct DroppedAttribute {
 impl VertexAttributes {
     /// Whether there is no attribute at all.
     pub fn is_empty(&self) -> bool {
-        self.texcoords.is_empty() && self.colors.is_empty()
+        self.texcoords.is_empty() && self.colors.is_empty() && self.normals.is_empty()
     }
 
     /// Number of floats per vertex when every attribute is laid end to end
-    /// (two per texture coordinate set, four for a colour): the width of
-    /// [`Self::gather`].
+    /// (two per texture coordinate set, four for a colour, three for
+    /// carried normals): the width of [`Self::gather`].
     pub fn width(&self) -> usize {
-        2 * self.texcoords.len() + if self.colors.is_empty() { 0 } else { 4 }
+        Self::width_of(
+            self.texcoords.len(),
+            !self.colors.is_empty(),
+            !self.normals.is_empty(),
+        )
+    }
+
+    /// The width of `sets` texture coordinate sets, a colour if `color`
+    /// and normals if `normals`.
+    pub fn width_of(sets: usize, color: bool, normals: bool) -> usize {
+        2 * sets + if color { 4 } else { 0 } + if normals { 3 } else { 0 }
     }
 
     /// Appends the attributes of vertex `v` to `out`, [`Self::width`] floats.
@@ -64,6 +80,9 @@ impl VertexAttributes {
         if let Some(c) = self.colors.get(v) {
             out.extend_from_slice(c);
         }
+        if let Some(n) = self.normals.get(v) {
+            out.extend_from_slice(n);
+        }
     }
 
     /// Empty lists of the same layout (as many sets, a colour if this has one).
@@ -73,20 +92,27 @@ impl VertexAttributes {
             colors: Vec::new(),
             color_alpha: self.color_alpha,
             tangents: self.tangents,
+            normals: Vec::new(),
             dropped: Vec::new(),
         }
     }
 
     /// Appends one vertex from `values`, laid out as [`Self::gather`] writes
-    /// them for a mesh of this layout.
-    pub fn push(&mut self, values: &[f32], has_color: bool) {
+    /// them for a mesh of this layout with a colour if `has_color` and
+    /// normals if `has_normals`.
+    pub fn push(&mut self, values: &[f32], has_color: bool, has_normals: bool) {
         for (k, set) in self.texcoords.iter_mut().enumerate() {
             set.push([values[2 * k], values[2 * k + 1]]);
         }
+        let mut at = 2 * self.texcoords.len();
         if has_color {
-            let at = 2 * self.texcoords.len();
             self.colors
                 .push([values[at], values[at + 1], values[at + 2], values[at + 3]]);
+            at += 4;
+        }
+        if has_normals {
+            self.normals
+                .push([values[at], values[at + 1], values[at + 2]]);
         }
     }
 
@@ -106,6 +132,11 @@ impl VertexAttributes {
             },
             color_alpha: self.color_alpha,
             tangents: self.tangents,
+            normals: if self.normals.is_empty() {
+                Vec::new()
+            } else {
+                order.iter().map(|&i| self.normals[i as usize]).collect()
+            },
             dropped: Vec::new(),
         }
     }
@@ -138,6 +169,12 @@ impl VertexAttributes {
             {
                 return Err(format!("COLOR_0 of vertex {v} is not finite"));
             }
+        }
+        if !self.normals.is_empty() && self.normals.len() != n {
+            return Err(format!(
+                "NORMAL has {} entries for {n} vertices",
+                self.normals.len()
+            ));
         }
         Ok(())
     }
@@ -254,20 +291,22 @@ mod tests {
             colors: vec![[0.1, 0.2, 0.3, 1.0], [0.4, 0.5, 0.6, 0.5]],
             color_alpha: true,
             tangents: false,
+            normals: vec![[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]],
             dropped: Vec::new(),
         };
-        assert_eq!(a.width(), 8);
+        assert_eq!(a.width(), 11);
         let mut b = a.empty_like();
         let mut buf = Vec::new();
         for v in 0..2 {
             buf.clear();
             a.gather(v, &mut buf);
-            b.push(&buf, true);
+            b.push(&buf, true, true);
         }
         assert_eq!(a, b);
         assert_eq!(a.select(&[1, 0]).texcoords[0], vec![[2.0, 3.0], [0.0, 1.0]]);
         assert!(a.check(2).is_ok());
         assert!(a.check(3).unwrap_err().contains("TEXCOORD_0"));
+        assert_eq!(a.select(&[1]).normals, vec![[1.0, 0.0, 0.0]]);
     }
 
     #[test]

@@ -224,7 +224,7 @@ fn remesh_command(a: RemeshArgs) -> Result<(), Failure> {
             format!("--quality-attributes needs glTF, GLB or PLY output, not {out_format}"),
         ));
     }
-    let input = load(&a.input, a.format)?;
+    let input = pipeline::prepare(&load(&a.input, a.format)?, &o);
     let bar = std::io::stderr().is_terminal().then(|| {
         let b = indicatif::ProgressBar::new(1000);
         b.set_style(

@@ -10,13 +10,13 @@ use serde::{Deserialize, Serialize};
 use crate::features::DEFAULT_FEATURE_ANGLE_DEG;
 use crate::io::Format;
 use crate::remesh::{
-    FeatureSource, RemeshError, RemeshOptions, Sizing, SmallParts, DEFAULT_GRADATION,
+    FeatureSource, NormalSource, RemeshError, RemeshOptions, Sizing, SmallParts, DEFAULT_GRADATION,
     DEFAULT_ITERATIONS, DEFAULT_MIN_CREASE_LENGTH, DEFAULT_RELAXATION_STEPS,
     DEFAULT_SMALL_PART_SIZE,
 };
 
 /// Every parameter name, in the order of [`Params`]' fields.
-pub const PARAM_NAMES: [&str; 20] = [
+pub const PARAM_NAMES: [&str; 21] = [
     "target_edge_length",
     "target_edge_ratio",
     "target_faces",
@@ -25,6 +25,7 @@ pub const PARAM_NAMES: [&str; 20] = [
     "preserve_features",
     "feature_angle",
     "features",
+    "normals",
     "min_crease_length",
     "sizing",
     "refine_curved",
@@ -71,6 +72,10 @@ pub struct Params {
     /// normals) or `both`.
     #[arg(long, default_value_t = FeatureSource::Angle)]
     pub features: FeatureSource,
+    /// Output normals: `recompute` them from the new surface, split at
+    /// features, or `transfer` the input's authored normals.
+    #[arg(long, default_value_t = NormalSource::Recompute)]
+    pub normals: NormalSource,
     /// Drop creases smaller than this many target lengths: isolated crease
     /// fragments, short chains between free ends and junctions, and turns
     /// that only wiggle next to another corner (0 keeps all).
@@ -131,6 +136,7 @@ impl Default for Params {
             preserve_features: o.preserve_features,
             feature_angle: o.feature_angle,
             features: o.features,
+            normals: o.normals,
             min_crease_length: o.min_crease_length,
             sizing: o.sizing,
             refine_curved: o.refine_curved,
@@ -172,6 +178,7 @@ impl Params {
             preserve_features: self.preserve_features,
             feature_angle: self.feature_angle,
             features: self.features,
+            normals: self.normals,
             min_crease_length: self.min_crease_length,
             sizing: self.sizing,
             refine_curved: self.refine_curved,

@@ -54,6 +54,38 @@ impl std::ops::Deref for LoadedInput {
     }
 }
 
+/// The input as a job with `options` uses it: under
+/// [`remesh::NormalSource::Transfer`], an input with normals carries them as
+/// an attribute too, so that the remesh samples them chart by chart and
+/// keeps their hard edges as seams. Otherwise (also for an input shaded
+/// flat, whose per-face normals say nothing a new surface could keep) the
+/// input itself.
+pub fn prepare(input: &LoadedInput, options: &RemeshOptions) -> LoadedInput {
+    let source = &input.source;
+    let carry = options.normals == remesh::NormalSource::Transfer
+        && !source.normals.is_empty()
+        && source.normals.len() == source.positions.len()
+        && source.attributes.normals.is_empty()
+        && !crate::features::normals::shaded_flat(source);
+    if !carry {
+        return input.clone();
+    }
+    let mut source = source.clone();
+    source.attributes.normals = source
+        .normals
+        .iter()
+        .map(|n| n.as_vec3().to_array())
+        .collect();
+    LoadedInput {
+        format: input.format,
+        reference: Arc::new(Reference::from_parts(
+            source,
+            input.mesh.clone(),
+            input.repairs,
+        )),
+    }
+}
+
 /// Reads `bytes` (named `file_name` if known) and builds the repaired mesh.
 pub fn load(
     bytes: &[u8],
@@ -116,6 +148,7 @@ pub fn run(
     options: &RemeshOptions,
     observer: &mut impl Observer,
 ) -> Result<JobOutput, JobError> {
+    let input = &prepare(input, options);
     let remeshed = remesh_only(input, options, observer)?;
     let stats = measure(input, &remeshed, options);
     let attributes = if options.quality_attributes {
@@ -163,7 +196,12 @@ pub fn remesh_only(
             [a.0, b.0]
         })
         .collect();
-    let mut written = io::with_split_normals(&surface, options.feature_angle, &features);
+    let carried = !input.source.attributes.normals.is_empty();
+    let mut written = if carried {
+        surface.clone()
+    } else {
+        io::with_split_normals(&surface, options.feature_angle, &features)
+    };
     if let Some(attrs) = input.source_attributes() {
         let seams: Vec<[u32; 2]> = out
             .mesh
@@ -176,7 +214,10 @@ pub fn remesh_only(
             .collect();
         let values = attrs.sample(&surface, &seams);
         let has_color = !input.source.attributes.colors.is_empty();
-        written = split_by_values(&written, &values, attrs.layout(), has_color);
+        written = split_by_values(&written, &values, attrs.layout(), has_color, carried);
+        if carried {
+            take_carried_normals(&mut written);
+        }
     }
     written.appearance = input.source.appearance.clone();
     written.scene = input.source.scene.clone();
@@ -185,6 +226,27 @@ pub fn remesh_only(
         surface,
         out,
     })
+}
+
+/// Moves the normals that `mesh` carries as an attribute into its
+/// `normals`, unit length; a vertex whose sampled normal vanished (opposite
+/// normals averaged) takes the normal of a face around it.
+fn take_carried_normals(mesh: &mut TriMesh) {
+    let carried = std::mem::take(&mut mesh.attributes.normals);
+    let mut normals: Vec<glam::DVec3> = carried
+        .iter()
+        .map(|n| glam::Vec3::from_array(*n).as_dvec3().normalize_or_zero())
+        .collect();
+    for t in &mesh.triangles {
+        let p = t.map(|v| mesh.positions[v as usize]);
+        let face = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+        for &v in t {
+            if normals[v as usize] == glam::DVec3::ZERO {
+                normals[v as usize] = face;
+            }
+        }
+    }
+    mesh.normals = normals;
 }
 
 /// Input and output statistics of a finished remesh, both against the
@@ -246,12 +308,23 @@ pub fn measure(input: &LoadedInput, remeshed: &Remeshed, options: &RemeshOptions
             options.corner_angle,
         ));
     }
-    let attributes = stats::attributes::compute(
+    let mut attributes = stats::attributes::compute(
         &input.source,
         input.source_attributes().map(|a| &**a),
         &remeshed.written,
         l,
     );
+    attributes.normals = if !input.source.attributes.normals.is_empty() {
+        "transferred".into()
+    } else if options.normals == remesh::NormalSource::Transfer {
+        if input.source.normals.is_empty() {
+            "recomputed: the input has no normals to transfer".into()
+        } else {
+            "recomputed: the input is shaded flat (each face its own normal), which a new surface cannot keep".into()
+        }
+    } else {
+        "recomputed".into()
+    };
     JobStats {
         attributes,
         parts: out.report.parts,

@@ -20,6 +20,11 @@
 //! shares the other half's texels). An output triangle that straddled a fold
 //! would cover texels of both halves folded onto each other; kept as a
 //! feature, the fold stays an edge line of the output.
+//!
+//! Carried normals (`normals: "transfer"`) are the one channel compared
+//! with a tolerance: two corners' normals within 1° are the same
+//! ([`crate::features::normals::HARD_EDGE_COS`]), so that a normal written
+//! twice with rounding makes no seam, and only authored hard edges do.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -95,6 +100,8 @@ impl SourceAttributes {
         }
         let mut across = vec![[NONE; 3]; tris.len()];
         let mut seams = Vec::new();
+        // Values compared bit for bit; carried normals come after them.
+        let plain = width - if layout.normals.is_empty() { 0 } else { 3 };
         let edges = EdgeTable::new(&tris, positions.len());
         let value = |h: u32, at: u32| -> &[f32] {
             let f = (h / 3) as usize;
@@ -103,8 +110,12 @@ impl SourceAttributes {
         };
         edges.for_each(|a, b, run| {
             if let [(_, h0), (_, h1)] = *run {
-                let same =
-                    |x: &[f32], y: &[f32]| x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits());
+                let same = |x: &[f32], y: &[f32]| {
+                    let (xv, xn) = x.split_at(plain);
+                    let (yv, yn) = y.split_at(plain);
+                    xv.iter().zip(yv).all(|(p, q)| p.to_bits() == q.to_bits())
+                        && (xn.is_empty() || same_normal(xn, yn))
+                };
                 let sets = layout.texcoords.len();
                 let folded = (0..sets).any(|s| {
                     let (x, y) = (
@@ -367,14 +378,22 @@ fn uv_area(values: &[f32], width: usize, f: u32, set: usize) -> f64 {
         - (at(2, 0) - at(0, 0)) * (at(1, 1) - at(0, 1)))
 }
 
+/// Whether two carried normals agree within the hard-edge angle.
+fn same_normal(a: &[f32], b: &[f32]) -> bool {
+    let a = DVec3::new(a[0] as f64, a[1] as f64, a[2] as f64);
+    let b = DVec3::new(b[0] as f64, b[1] as f64, b[2] as f64);
+    a.dot(b) >= crate::features::normals::HARD_EDGE_COS * a.length() * b.length()
+}
+
 fn face_normal(p: [DVec3; 3]) -> DVec3 {
     (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero()
 }
 
 /// A copy of `mesh` whose vertices are split so that each carries one
 /// value of `corner_values` (`width` floats per corner, face by face, laid
-/// out as [`VertexAttributes::gather`] writes them for `layout`'s sets and,
-/// when `has_color`, a colour): the first value met at a vertex keeps its
+/// out as [`VertexAttributes::gather`] writes them for `layout`'s sets,
+/// when `has_color` a colour and when `has_normals` normals): the first
+/// value met at a vertex keeps its
 /// index, others get copies (position and normal copied). The attributes
 /// are set from the values.
 pub fn split_by_values(
@@ -382,8 +401,9 @@ pub fn split_by_values(
     corner_values: &[f32],
     layout: &VertexAttributes,
     has_color: bool,
+    has_normals: bool,
 ) -> TriMesh {
-    let w = 2 * layout.texcoords.len() + if has_color { 4 } else { 0 };
+    let w = VertexAttributes::width_of(layout.texcoords.len(), has_color, has_normals);
     let n = mesh.positions.len();
     let mut out = mesh.clone();
     let mut attrs = layout.empty_like();
@@ -427,7 +447,7 @@ pub fn split_by_values(
         } else {
             &corner_values[o..][..w]
         };
-        attrs.push(val, has_color);
+        attrs.push(val, has_color, has_normals);
     }
     out.attributes = attrs;
     out
@@ -483,7 +503,7 @@ mod tests {
                 );
             }
         }
-        let split = split_by_values(&welded, &values, src.layout(), false);
+        let split = split_by_values(&welded, &values, src.layout(), false, false);
         // Each of the 8 cube corners is split in three, each edge vertex in two.
         assert_eq!(split.positions.len(), 6 * 25);
         assert!(split.check().is_ok());

@@ -27,9 +27,42 @@ pub const FLAT_SHADED_FRACTION: f64 = 0.5;
 /// the same positions (the repaired input); empty when `source` has no
 /// normals or is shaded flat.
 pub fn hard_edges(source: &TriMesh, surface: &TriMesh) -> Vec<[u32; 2]> {
+    let Some((hard, interior, welded)) = welded_hard_edges(source) else {
+        return Vec::new();
+    };
+    if interior == 0 || hard.len() as f64 > FLAT_SHADED_FRACTION * interior as f64 {
+        return Vec::new();
+    }
+    // Welded vertex pairs to the surface's vertex pairs, by position.
+    let by_position: std::collections::HashMap<[u64; 3], u32> = surface
+        .positions
+        .iter()
+        .enumerate()
+        .map(|(i, &p)| (position_key(p), i as u32))
+        .collect();
+    hard.into_iter()
+        .filter_map(|[a, b]| {
+            let a = *by_position.get(&position_key(welded[a as usize]))?;
+            let b = *by_position.get(&position_key(welded[b as usize]))?;
+            Some([a, b])
+        })
+        .collect()
+}
+
+/// Whether `source` carries normals and is shaded flat: more than
+/// [`FLAT_SHADED_FRACTION`] of its interior edges hard.
+pub fn shaded_flat(source: &TriMesh) -> bool {
+    welded_hard_edges(source).is_some_and(|(hard, interior, _)| {
+        interior > 0 && hard.len() as f64 > FLAT_SHADED_FRACTION * interior as f64
+    })
+}
+
+/// The hard edges of `source` as pairs of its welded positions, the number
+/// of interior edges, and the welded positions; `None` without normals.
+fn welded_hard_edges(source: &TriMesh) -> Option<(Vec<[u32; 2]>, usize, Vec<DVec3>)> {
     let n = source.positions.len();
     if source.normals.len() != n || n == 0 {
-        return Vec::new();
+        return None;
     }
     let (weld, welded) = weld_positions(&source.positions);
     let tris: Vec<[u32; 3]> = source
@@ -55,23 +88,7 @@ pub fn hard_edges(source: &TriMesh, surface: &TriMesh) -> Vec<[u32; 2]> {
             }
         }
     });
-    if interior == 0 || hard.len() as f64 > FLAT_SHADED_FRACTION * interior as f64 {
-        return Vec::new();
-    }
-    // Welded vertex pairs to the surface's vertex pairs, by position.
-    let by_position: std::collections::HashMap<[u64; 3], u32> = surface
-        .positions
-        .iter()
-        .enumerate()
-        .map(|(i, &p)| (position_key(p), i as u32))
-        .collect();
-    hard.into_iter()
-        .filter_map(|[a, b]| {
-            let a = *by_position.get(&position_key(welded[a as usize]))?;
-            let b = *by_position.get(&position_key(welded[b as usize]))?;
-            Some([a, b])
-        })
-        .collect()
+    Some((hard, interior, welded))
 }
 
 #[cfg(test)]

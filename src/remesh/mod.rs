@@ -34,8 +34,8 @@ mod state;
 mod uv;
 
 pub use options::{
-    estimated_faces, FeatureSource, RemeshOptions, Sizing, SmallParts, DEFAULT_GRADATION,
-    DEFAULT_ITERATIONS, DEFAULT_MAX_OUTPUT_FACES, DEFAULT_MIN_CREASE_LENGTH,
+    estimated_faces, FeatureSource, NormalSource, RemeshOptions, Sizing, SmallParts,
+    DEFAULT_GRADATION, DEFAULT_ITERATIONS, DEFAULT_MAX_OUTPUT_FACES, DEFAULT_MIN_CREASE_LENGTH,
     DEFAULT_RELAXATION_STEPS, DEFAULT_SMALL_PART_SIZE,
 };
 pub use parts::PartsReport;

@@ -153,6 +153,45 @@ impl std::str::FromStr for FeatureSource {
     }
 }
 
+/// Where the output's shading normals come from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum NormalSource {
+    /// Computed from the new surface, split at its feature edges.
+    #[default]
+    Recompute,
+    /// The input's own normals, sampled like texture coordinates: each
+    /// output corner takes the input's normal at its closest point, on its
+    /// side of the input's hard edges, which are kept as seams. For
+    /// low-poly art whose normals were authored; an input without normals
+    /// gets them recomputed, and the statistics say so.
+    Transfer,
+}
+
+impl std::fmt::Display for NormalSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            NormalSource::Recompute => "recompute",
+            NormalSource::Transfer => "transfer",
+        })
+    }
+}
+
+impl std::str::FromStr for NormalSource {
+    type Err = String;
+
+    /// Parses `recompute` or `transfer`, case-insensitively.
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.to_ascii_lowercase().as_str() {
+            "recompute" => Ok(NormalSource::Recompute),
+            "transfer" => Ok(NormalSource::Transfer),
+            _ => Err(format!(
+                "{s:?} is not a normal source; use recompute or transfer"
+            )),
+        }
+    }
+}
+
 /// Options of [`super::remesh`]. Construct with `Default` and the `with_*`
 /// builders, or fill the public fields; [`RemeshOptions::validate`] runs
 /// before any work.
@@ -192,6 +231,9 @@ pub struct RemeshOptions {
     /// Where sharp features come from: the dihedral angle, the hard edges
     /// of the input's normals, or both. Default [`FeatureSource::Angle`].
     pub features: FeatureSource,
+    /// Where the output's normals come from. Default
+    /// [`NormalSource::Recompute`].
+    pub normals: NormalSource,
     /// Turning angle in degrees above which a feature-line vertex is a corner.
     pub corner_angle: f64,
     /// Creases smaller than this many target lengths are dropped (see
@@ -259,6 +301,7 @@ impl Default for RemeshOptions {
             preserve_features: true,
             feature_angle: DEFAULT_FEATURE_ANGLE_DEG,
             features: FeatureSource::Angle,
+            normals: NormalSource::Recompute,
             corner_angle: DEFAULT_CORNER_ANGLE_DEG,
             min_crease_length: DEFAULT_MIN_CREASE_LENGTH,
             sizing: Sizing::Uniform,

@@ -57,6 +57,10 @@ pub struct AttributeStats {
     pub output: Vec<String>,
     /// Attributes of the input that the output does not carry, with why.
     pub dropped: Vec<DroppedAttribute>,
+    /// Where the output's normals come from: `recomputed` from the new
+    /// surface, or `transferred` from the input's (`normals: "transfer"`).
+    #[serde(default)]
+    pub normals: String,
     /// One entry per texture coordinate set of the output.
     pub texcoords: Vec<TexcoordStats>,
     /// Things a reader should know about the figures (e.g. a texture that

@@ -124,6 +124,13 @@ pub struct Label {
     /// (a glTF mesh, an OBJ object or group), when the input had parts.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub part: Option<u32>,
+    /// How many of the mesh's texture coordinate sets these faces really
+    /// carry, when fewer than the mesh has (a glTF primitive without
+    /// `TEXCOORD_0` in a scene whose other primitives have one): the
+    /// readers pad the missing sets with zeros so that every vertex has a
+    /// value, and the writers leave them out again. `None`: all of them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub texcoord_sets: Option<u32>,
 }
 
 /// An indexed triangle mesh with optional per-vertex normals and per-face labels.

@@ -328,3 +328,97 @@ fn a_normal_map_gets_tangents_and_a_mesh_without_uvs_gets_none() {
     let glb = io::write(&bare, Format::Glb, &WriteOptions::default()).unwrap();
     assert!(tangents_of(&glb).is_none(), "no UVs, no tangent basis");
 }
+
+/// A primitive without `TEXCOORD_0` in a scene whose other primitive has
+/// one is written without it again, after a remesh too: the reader's zero
+/// padding never reaches the output.
+#[test]
+fn a_primitive_without_texture_coordinates_stays_without() {
+    let mut two = isoremesh::shapes::icosphere(2);
+    let shift = two.positions.len() as u32;
+    let mut other = isoremesh::shapes::icosphere(2);
+    for p in &mut other.positions {
+        p.x += 3.0;
+    }
+    let nf = two.triangles.len();
+    two.positions.extend(other.positions);
+    two.triangles
+        .extend(other.triangles.iter().map(|t| t.map(|v| v + shift)));
+    two.face_labels = (0..two.triangles.len())
+        .map(|f| u32::from(f >= nf))
+        .collect();
+    two.labels = vec![isoremesh::Label::default(), isoremesh::Label::default()];
+    for (k, l) in two.labels.iter_mut().enumerate() {
+        l.material = Some(isoremesh::trimesh::Material {
+            name: Some(format!("m{k}")),
+            ..Default::default()
+        });
+    }
+    let uv: Vec<[f32; 2]> = two
+        .positions
+        .iter()
+        .map(|p| [p.x as f32 * 0.1 + 0.5, p.y as f32 * 0.5 + 0.5])
+        .collect();
+    two.attributes.texcoords = vec![uv];
+    let glb = io::write(&two, Format::Glb, &WriteOptions::default()).unwrap();
+    // Drop the second primitive's TEXCOORD_0, as an exporter would write it.
+    let glb = strip_second_texcoord(&glb);
+    let read = io::read(&glb, Format::Glb, &ReadOptions::default())
+        .unwrap()
+        .mesh;
+    let sets: Vec<Option<u32>> = read.labels.iter().map(|l| l.texcoord_sets).collect();
+    assert_eq!(sets, [None, Some(0)]);
+    let input = pipeline::load(&glb, Some("two.glb"), None, &ReadOptions::default()).unwrap();
+    let job = pipeline::run(&input, &RemeshOptions::default(), &mut NoObserver).unwrap();
+    let out = pipeline::encode(&job.mesh, Format::Glb).unwrap();
+    let doc = glb_json(&out);
+    let prims = doc["meshes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|m| m["primitives"].as_array().unwrap().clone())
+        .collect::<Vec<_>>();
+    assert_eq!(prims.len(), 2, "{doc}");
+    let with: Vec<bool> = prims
+        .iter()
+        .map(|p| p["attributes"].get("TEXCOORD_0").is_some())
+        .collect();
+    assert_eq!(with.iter().filter(|&&w| w).count(), 1, "{with:?}");
+}
+
+/// The JSON chunk of a GLB.
+fn glb_json(glb: &[u8]) -> serde_json::Value {
+    let len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+    serde_json::from_slice(&glb[20..20 + len]).unwrap()
+}
+
+/// `glb` with the second primitive's `TEXCOORD_0` removed from its JSON.
+fn strip_second_texcoord(glb: &[u8]) -> Vec<u8> {
+    let mut doc = glb_json(glb);
+    let prims = doc["meshes"]
+        .as_array_mut()
+        .unwrap()
+        .iter_mut()
+        .flat_map(|m| m["primitives"].as_array_mut().unwrap().iter_mut())
+        .collect::<Vec<_>>();
+    let second = prims.into_iter().nth(1).expect("two primitives");
+    second["attributes"]
+        .as_object_mut()
+        .unwrap()
+        .remove("TEXCOORD_0");
+    let len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+    let mut json = serde_json::to_vec(&doc).unwrap();
+    while json.len() % 4 != 0 {
+        json.push(b' ');
+    }
+    let bin = &glb[20 + len..];
+    let mut out = Vec::new();
+    out.extend_from_slice(b"glTF");
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&((12 + 8 + json.len() + bin.len()) as u32).to_le_bytes());
+    out.extend_from_slice(&(json.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"JSON");
+    out.extend_from_slice(&json);
+    out.extend_from_slice(bin);
+    out
+}

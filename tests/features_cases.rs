@@ -104,6 +104,7 @@ fn two_material_grid() -> TriMesh {
                 gltf: None,
             }),
             part: None,
+            texcoord_sets: None,
         })
         .collect();
     m

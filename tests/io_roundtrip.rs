@@ -163,6 +163,7 @@ fn labelled_mesh() -> TriMesh {
                 gltf: None,
             }),
             part: None,
+            texcoord_sets: None,
         },
         Label {
             name: Some("body".into()),
@@ -176,11 +177,13 @@ fn labelled_mesh() -> TriMesh {
                 gltf: None,
             }),
             part: None,
+            texcoord_sets: None,
         },
         Label {
             name: None,
             material: None,
             part: None,
+            texcoord_sets: None,
         },
     ];
     io::with_split_normals(&m, 40.0, &[])

@@ -169,6 +169,7 @@ pub(super) fn read(bytes: &[u8], opts: &ReadOptions) -> Result<Imported, IoError
                     name: name.clone(),
                     material,
                     part: parted.then_some(part as u32),
+                    texcoord_sets: None,
                 });
             }
             mesh.face_labels.resize(

@@ -241,6 +241,7 @@ mod tests {
                     ..Default::default()
                 }),
                 part: Some(1),
+                texcoord_sets: Some(0),
             },
         ];
         m.scene = Some(std::sync::Arc::new(Scene {

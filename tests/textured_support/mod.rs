@@ -51,6 +51,7 @@ pub fn textured_soup(
             ..Default::default()
         }),
         part: None,
+        texcoord_sets: None,
     }];
     soup.appearance = Some(Arc::new(Appearance {
         textures: vec![json!({"source": 0, "sampler": 0})],

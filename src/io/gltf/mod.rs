@@ -241,6 +241,7 @@ pub(super) fn read(bytes: &[u8], format: Format, opts: &ReadOptions) -> Result<I
     let mut dropped_scene = Vec::new();
     let mut all_normals = true;
     let mut labels: HashMap<(usize, Option<usize>), u32> = HashMap::new();
+    let mut label_sets: HashMap<u32, u32> = HashMap::new();
     let mut parts = Vec::with_capacity(instances.len());
     type VertexKey = (usize, usize, Option<usize>, Vec<usize>, Option<usize>);
     let mut shared: HashMap<VertexKey, (u32, u32)> = HashMap::new();
@@ -422,6 +423,12 @@ pub(super) fn read(bytes: &[u8], format: Format, opts: &ReadOptions) -> Result<I
             let mat = prim.material.map(|i| i.value());
             let next = mesh.labels.len() as u32;
             let label = *labels.entry((instance, mat)).or_insert(next);
+            // The fewest sets of any primitive of the label (see Label::texcoord_sets).
+            let sets = tex_accs.len() as u32;
+            label_sets
+                .entry(label)
+                .and_modify(|s: &mut u32| *s = (*s).min(sets))
+                .or_insert(sets);
             if label == next {
                 let material = match mat {
                     Some(i) => {
@@ -437,6 +444,7 @@ pub(super) fn read(bytes: &[u8], format: Format, opts: &ReadOptions) -> Result<I
                     name: material.as_ref().and_then(|m| m.name.clone()),
                     material,
                     part: Some(instance as u32),
+                    texcoord_sets: None,
                 });
             }
             mesh.face_labels.resize(mesh.triangles.len(), label);
@@ -445,6 +453,12 @@ pub(super) fn read(bytes: &[u8], format: Format, opts: &ReadOptions) -> Result<I
     let nv = mesh.positions.len();
     for set in &mut mesh.attributes.texcoords {
         set.resize(nv, [0.0; 2]);
+    }
+    let all_sets = mesh.attributes.texcoords.len() as u32;
+    for (&l, &sets) in &label_sets {
+        if let Some(label) = mesh.labels.get_mut(l as usize) {
+            label.texcoord_sets = (sets < all_sets).then_some(sets);
+        }
     }
     if !mesh.attributes.colors.is_empty() {
         mesh.attributes.colors.resize(nv, [1.0; 4]);

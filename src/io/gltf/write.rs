@@ -273,7 +273,12 @@ pub(in crate::io) fn write(
             let a = acc(&mut root, v, 3, Type::Vec3, None);
             attributes.insert(Checked::Valid(Semantic::Normals), a);
         }
-        for (k, &v) in uv_views.iter().enumerate() {
+        let sets = mesh
+            .labels
+            .get(l)
+            .and_then(|label| label.texcoord_sets)
+            .map_or(uv_views.len(), |s| s as usize);
+        for (k, &v) in uv_views.iter().enumerate().take(sets) {
             let a = acc(&mut root, v, 2, Type::Vec2, None);
             attributes.insert(Checked::Valid(Semantic::TexCoords(k as u32)), a);
         }

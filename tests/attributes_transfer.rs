@@ -15,7 +15,7 @@ use isoremesh::pipeline::{self, JobOutput};
 use isoremesh::remesh::{NoObserver, RemeshOptions};
 use isoremesh::stats::attributes::TexcoordStats;
 use isoremesh::{shapes, TriMesh};
-use textured_support::{checker_png, textured_soup};
+use textured_support::{checker_png, edit_glb, textured_soup};
 
 /// `mesh` as a soup with per-corner texture coordinates from `uv` and one
 /// base-colour texture, written as GLB.
@@ -405,26 +405,6 @@ fn a_texture_larger_than_the_limit_is_refused_from_its_header() {
         .unwrap()
         .mesh;
     assert_eq!(back.appearance.unwrap().images[0].bytes, png);
-}
-
-/// `glb` with its JSON chunk changed by `edit`.
-fn edit_glb(glb: &[u8], edit: impl FnOnce(&mut serde_json::Value)) -> Vec<u8> {
-    let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
-    let mut doc: serde_json::Value = serde_json::from_slice(&glb[20..20 + json_len]).unwrap();
-    edit(&mut doc);
-    let mut text = serde_json::to_vec(&doc).unwrap();
-    while text.len() % 4 != 0 {
-        text.push(b' ');
-    }
-    let bin = &glb[20 + json_len..];
-    let mut out = b"glTF".to_vec();
-    out.extend_from_slice(&2u32.to_le_bytes());
-    out.extend_from_slice(&((12 + 8 + text.len() + bin.len()) as u32).to_le_bytes());
-    out.extend_from_slice(&(text.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"JSON");
-    out.extend_from_slice(&text);
-    out.extend_from_slice(bin);
-    out
 }
 
 #[test]

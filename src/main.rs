@@ -36,6 +36,40 @@ enum Command {
     /// Run the HTTP service (see the README's "Service" section).
     #[cfg(feature = "service")]
     Serve(Box<isoremesh::service::ServiceConfig>),
+    /// Manage the service's API keys.
+    #[cfg(feature = "service")]
+    #[command(subcommand)]
+    Keys(KeysCommand),
+}
+
+#[cfg(feature = "service")]
+#[derive(Subcommand)]
+enum KeysCommand {
+    /// Create a key named NAME: its hash is appended to FILE (created,
+    /// private to its owner, when missing) and the key is printed once.
+    New(NewKeyArgs),
+}
+
+#[cfg(feature = "service")]
+#[derive(Args)]
+struct NewKeyArgs {
+    /// The key's unique name; its jobs belong to it.
+    name: String,
+    /// The key file that `serve --api-keys` reads.
+    #[arg(long)]
+    file: PathBuf,
+    /// Jobs queued and running at once (default 16).
+    #[arg(long)]
+    max_active_jobs: Option<u32>,
+    /// Sustained requests per second (default 20).
+    #[arg(long)]
+    requests_per_second: Option<f64>,
+    /// Requests at once after idling (default 40).
+    #[arg(long)]
+    burst: Option<u32>,
+    /// Bytes of uploads and results kept at once (default 8 GiB).
+    #[arg(long)]
+    max_stored_bytes: Option<u64>,
 }
 
 #[derive(Args)]
@@ -316,6 +350,26 @@ fn serve_command(config: isoremesh::service::ServiceConfig) -> Result<(), Failur
     Ok(())
 }
 
+#[cfg(feature = "service")]
+fn new_key_command(a: NewKeyArgs) -> Result<(), Failure> {
+    use isoremesh::service::auth::{append_new_key, KeyLine};
+    let entry = KeyLine {
+        name: a.name,
+        sha256: String::new(),
+        max_active_jobs: a.max_active_jobs,
+        requests_per_second: a.requests_per_second,
+        burst: a.burst,
+        max_stored_bytes: a.max_stored_bytes,
+    };
+    let key = append_new_key(&a.file, entry).map_err(|e| Failure(e.to_string()))?;
+    println!("{key}");
+    eprintln!(
+        "isoremesh: the key is shown only now; {} holds its hash (send SIGHUP to a running server to read it)",
+        a.file.display()
+    );
+    Ok(())
+}
+
 /// Completes on Ctrl-C or, on Unix, SIGTERM.
 #[cfg(feature = "service")]
 async fn shutdown_signal() {
@@ -373,6 +427,8 @@ fn main() -> ExitCode {
         Command::Remesh(a) => remesh_command(*a),
         #[cfg(feature = "service")]
         Command::Serve(c) => serve_command(*c),
+        #[cfg(feature = "service")]
+        Command::Keys(KeysCommand::New(a)) => new_key_command(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

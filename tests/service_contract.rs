@@ -549,6 +549,60 @@ fn real_responses_validate_against_the_spec() {
     drop(rec);
     s.stop();
 
+    // A third server with API keys: every /v1 operation without a key
+    // (401), and past a key's rate (429).
+    let dir3 = tempfile::tempdir().unwrap();
+    let keys = dir3.path().join("keys.jsonl");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_isoremesh"))
+        .args([
+            "keys",
+            "new",
+            "tight",
+            "--requests-per-second",
+            "0.01",
+            "--burst",
+            "1",
+            "--file",
+        ])
+        .arg(&keys)
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let key = String::from_utf8(out.stdout).unwrap().trim().to_string();
+    let mut cfg = config(&dir3.path().join("data"));
+    cfg.api_keys = Some(keys);
+    let s = Server::start(cfg);
+    let mut rec = Recorder {
+        s: &s,
+        seen: vec![],
+    };
+    let any = "00000000-0000-4000-8000-000000000000";
+    for (method, template) in [
+        ("GET", "/v1/jobs"),
+        ("POST", "/v1/jobs"),
+        ("GET", "/v1/jobs/{id}"),
+        ("DELETE", "/v1/jobs/{id}"),
+        ("GET", "/v1/jobs/{id}/result"),
+        ("POST", "/v1/jobs/{id}/cancel"),
+    ] {
+        let url = s.url(&template.replace("{id}", any));
+        let m: reqwest::Method = method.parse().unwrap();
+        let r = s.client.request(m.clone(), &url).send().unwrap();
+        rec.record(method, template, r);
+        for _ in 0..2 {
+            let r = s
+                .client
+                .request(m.clone(), &url)
+                .bearer_auth(&key)
+                .send()
+                .unwrap();
+            rec.record(method, template, r);
+        }
+    }
+    seen.append(&mut rec.seen);
+    drop(rec);
+    s.stop();
+
     let mut statuses = BTreeSet::new();
     let mut errors = vec![];
     for r in &seen {

@@ -6,8 +6,6 @@
 
 mod service_support;
 
-use std::io::{BufRead, BufReader};
-use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use isoremesh::io::Format;
@@ -296,53 +294,10 @@ fn a_job_interrupted_too_often_fails_instead_of_running_again() {
     assert_eq!(again["attempts"], 1);
 }
 
-/// Starts the real binary and returns it with its base URL.
-fn spawn_binary(data_dir: &std::path::Path) -> (std::process::Child, String) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_isoremesh"))
-        .args([
-            "serve",
-            "--listen",
-            "127.0.0.1:0",
-            "--workers",
-            "1",
-            "--data-dir",
-        ])
-        .arg(data_dir)
-        .env("RUST_LOG", "info")
-        .env_remove("ISOREMESH_LOG_JSON")
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let stderr = child.stderr.take().unwrap();
-    let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        let mut sent = false;
-        for line in BufReader::new(stderr).lines() {
-            let Ok(line) = line else { break };
-            if !sent {
-                if let Some(i) = line.find("listening on http://") {
-                    let addr = line[i + "listening on ".len()..]
-                        .split_whitespace()
-                        .next()
-                        .unwrap()
-                        .to_string();
-                    let _ = tx.send(addr);
-                    sent = true;
-                }
-            }
-        }
-    });
-    let base = rx
-        .recv_timeout(Duration::from_secs(60))
-        .expect("server did not start");
-    (child, base)
-}
-
 /// Runs the binary on `dir`, submits a slow job `a` and a quick job `b`,
 /// and kills the process with SIGKILL while `a` runs; returns (a, b).
 fn kill_9_while_running(dir: &std::path::Path) -> (String, String) {
-    let (mut child, base) = spawn_binary(dir);
+    let (mut child, base) = spawn_binary(dir, &[]);
     let client = reqwest::blocking::Client::new();
     let t0 = Instant::now();
     while client.get(format!("{base}/readyz")).send().is_err() {

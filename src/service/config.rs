@@ -32,6 +32,10 @@ pub const DEFAULT_MAX_ATTEMPTS: u32 = 3;
 pub const DEFAULT_MAX_CONNECTIONS: usize = 1024;
 /// Default deadline for a request head, which also bounds keep-alive idling.
 pub const DEFAULT_HEADER_TIMEOUT_SECS: u64 = 10;
+/// Default cap on uploads being received, parsed and stored at once.
+pub const DEFAULT_MAX_UPLOADS_IN_FLIGHT: u64 = 16;
+/// Default cap on the bytes of those uploads together: 1 GiB.
+pub const DEFAULT_MAX_UPLOAD_BYTES_IN_FLIGHT: u64 = 1 << 30;
 /// Default lifetime of a finished job and its result.
 pub const DEFAULT_RESULT_TTL_SECS: u64 = 86_400;
 /// Default time running jobs get to finish at shutdown.
@@ -96,6 +100,19 @@ pub struct ServiceConfig {
     /// stopped and kept queued for the next start.
     #[arg(long, env = "ISOREMESH_SHUTDOWN_GRACE_SECS", default_value_t = DEFAULT_SHUTDOWN_GRACE_SECS)]
     pub shutdown_grace_secs: u64,
+    /// Uploads received, parsed and stored at once; more get a
+    /// `uploads-busy` 503.
+    #[arg(long, env = "ISOREMESH_MAX_UPLOADS_IN_FLIGHT", default_value_t = DEFAULT_MAX_UPLOADS_IN_FLIGHT)]
+    pub max_uploads_in_flight: u64,
+    /// Bytes of the uploads in flight together; an upload whose bytes would
+    /// pass it gets a `uploads-busy` 503. At least `--max-body-bytes`.
+    #[arg(long, env = "ISOREMESH_MAX_UPLOAD_BYTES_IN_FLIGHT", default_value_t = DEFAULT_MAX_UPLOAD_BYTES_IN_FLIGHT)]
+    pub max_upload_bytes_in_flight: u64,
+    /// API key file (made by `isoremesh keys new`): when set, every `/v1`
+    /// request needs `Authorization: Bearer <key>` and each key sees only
+    /// its own jobs. Re-read on SIGHUP. Without it the service is open.
+    #[arg(long = "api-keys", env = "ISOREMESH_API_KEYS_FILE")]
+    pub api_keys: Option<PathBuf>,
     /// Log as JSON lines instead of human-readable text.
     #[arg(long, env = "ISOREMESH_LOG_JSON")]
     pub log_json: bool,
@@ -131,6 +148,9 @@ impl ServiceConfig {
             header_timeout_secs: DEFAULT_HEADER_TIMEOUT_SECS,
             result_ttl_secs: DEFAULT_RESULT_TTL_SECS,
             shutdown_grace_secs: DEFAULT_SHUTDOWN_GRACE_SECS,
+            max_uploads_in_flight: DEFAULT_MAX_UPLOADS_IN_FLIGHT,
+            max_upload_bytes_in_flight: DEFAULT_MAX_UPLOAD_BYTES_IN_FLIGHT,
+            api_keys: None,
             log_json: false,
         }
     }
@@ -172,6 +192,15 @@ impl ServiceConfig {
         }
         if self.job_timeout_secs == 0 {
             return bad("job-timeout-secs", "must be at least 1");
+        }
+        if self.max_uploads_in_flight == 0 {
+            return bad("max-uploads-in-flight", "must be at least 1");
+        }
+        if self.max_upload_bytes_in_flight < self.max_body_bytes {
+            return bad(
+                "max-upload-bytes-in-flight",
+                "must be at least --max-body-bytes, or no upload of the largest size could pass",
+            );
         }
         if self.result_ttl_secs == 0 {
             return bad("result-ttl-secs", "must be at least 1");

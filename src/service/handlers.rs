@@ -7,12 +7,13 @@ use std::collections::HashMap;
 use std::sync::Arc;
 
 use axum::body::Body;
-use axum::extract::{Path, Query, Request, State};
+use axum::extract::{Extension, Path, Query, Request, State};
 use axum::http::{header, HeaderMap, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};
 use axum::Json;
 use sha2::{Digest, Sha256};
 
+use super::auth::Caller;
 use super::bundle;
 use super::dto::{etag, job_href, Health, JobList, JobSummary, JobView};
 use super::jobs::{now_ms, CancelReason, Idempotency, InputInfo, Job, JobRecord, JobStatus};
@@ -41,11 +42,16 @@ fn job_not_found(id: &str) -> Problem {
     .with_field("id")
 }
 
-fn find(svc: &Service, id: &str) -> Result<Arc<Job>, Problem> {
+/// The job `id` if the caller may see it. Another key's job answers as if
+/// it did not exist, so that ids cannot be probed.
+fn find(svc: &Service, id: &str, caller: &Caller) -> Result<Arc<Job>, Problem> {
     if !is_job_id(id) {
         return Err(job_not_found(id));
     }
-    svc.jobs.get(id).ok_or_else(|| job_not_found(id))
+    svc.jobs
+        .get(id)
+        .filter(|j| j.update(|r| caller.may_see(r.owner.as_deref())))
+        .ok_or_else(|| job_not_found(id))
 }
 
 async fn blocking<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> Result<T, Problem> {
@@ -153,7 +159,11 @@ fn check_upload(svc: &Service, up: &Upload) -> Result<Checked, Problem> {
 }
 
 /// `POST /v1/jobs`: validate, store and queue a job.
-pub async fn submit(State(svc): State<AppState>, req: Request) -> Result<Response, Problem> {
+pub async fn submit(
+    State(svc): State<AppState>,
+    Extension(caller): Extension<Caller>,
+    req: Request,
+) -> Result<Response, Problem> {
     if svc.is_shutting_down() {
         return Err(shutting_down());
     }
@@ -175,13 +185,13 @@ pub async fn submit(State(svc): State<AppState>, req: Request) -> Result<Respons
             }
         },
     };
-    let upload = read_upload(req, &svc.config).await?;
+    let upload = read_upload(req, &svc.config, &svc.uploads, &svc.metrics).await?;
     let _gate = match &key {
         Some(_) => Some(svc.idempotency_gate.lock().await),
         None => None,
     };
     if let Some(k) = &key {
-        if let Some((fingerprint, id)) = svc.jobs.by_key(k) {
+        if let Some((fingerprint, id)) = svc.jobs.by_key(caller.owner(), k) {
             if fingerprint != upload.fingerprint {
                 return Err(Problem::new(
                     ProblemKind::IdempotencyConflict,
@@ -197,6 +207,18 @@ pub async fn submit(State(svc): State<AppState>, req: Request) -> Result<Respons
             }
         }
     }
+    let upload_bytes = upload.mesh.len() as u64
+        + upload
+            .buffers
+            .iter()
+            .map(|(_, b)| b.len() as u64)
+            .sum::<u64>();
+    let _admission = svc.auth.admit(
+        &caller,
+        upload_bytes,
+        |owner| svc.jobs.usage(owner),
+        &svc.metrics,
+    )?;
     let permit = svc
         .parse_permits
         .acquire()
@@ -243,6 +265,8 @@ pub async fn submit(State(svc): State<AppState>, req: Request) -> Result<Respons
         request_id,
         attempts: 0,
         result_expired: false,
+        owner: caller.owner().map(str::to_string),
+        upload_bytes,
     };
     let job = Arc::new(Job::new(record.clone()));
     if let Some(prepared) = svc.prepared.hold(checked.loaded) {
@@ -272,9 +296,10 @@ fn shutting_down() -> Problem {
 /// `GET /v1/jobs/{id}`.
 pub async fn get_job(
     State(svc): State<AppState>,
+    Extension(caller): Extension<Caller>,
     Path(id): Path<String>,
 ) -> Result<Response, Problem> {
-    let job = find(&svc, &id)?;
+    let job = find(&svc, &id, &caller)?;
     Ok(job_response(StatusCode::OK, &job, false))
 }
 
@@ -282,9 +307,10 @@ pub async fn get_job(
 /// running one is asked to stop and stops within a fraction of a second (202).
 pub async fn cancel(
     State(svc): State<AppState>,
+    Extension(caller): Extension<Caller>,
     Path(id): Path<String>,
 ) -> Result<Response, Problem> {
-    let job = find(&svc, &id)?;
+    let job = find(&svc, &id, &caller)?;
     let now = now_ms();
     let ttl = svc.config.result_ttl_secs * 1000;
     let before = job.update(|r| {
@@ -319,9 +345,10 @@ pub async fn cancel(
 /// `DELETE /v1/jobs/{id}`: cancels if needed and removes the job and its files.
 pub async fn delete(
     State(svc): State<AppState>,
+    Extension(caller): Extension<Caller>,
     Path(id): Path<String>,
 ) -> Result<Response, Problem> {
-    let job = find(&svc, &id)?;
+    let job = find(&svc, &id, &caller)?;
     job.request_cancel(CancelReason::User);
     job.mark_deleted();
     svc.queue.remove(&id);
@@ -377,13 +404,14 @@ fn unreferenced_part(
 /// `.mtl` and texture images).
 pub async fn result(
     State(svc): State<AppState>,
+    Extension(caller): Extension<Caller>,
     Path(id): Path<String>,
     query: Result<Query<HashMap<String, String>>, axum::extract::rejection::QueryRejection>,
     headers: HeaderMap,
 ) -> Result<Response, Problem> {
     let Query(q) = query.map_err(bad_query)?;
     only_params(&q, &["format", "bundle"])?;
-    let job = find(&svc, &id)?;
+    let job = find(&svc, &id, &caller)?;
     let rec = job.snapshot();
     let wanted = match q.get("format") {
         Some(f) => Some(f.parse::<Format>().map_err(|e| {
@@ -492,6 +520,7 @@ const MAX_PAGE: usize = 1000;
 /// `GET /v1/jobs?status=&limit=&cursor=`: newest first.
 pub async fn list(
     State(svc): State<AppState>,
+    Extension(caller): Extension<Caller>,
     query: Result<Query<HashMap<String, String>>, axum::extract::rejection::QueryRejection>,
 ) -> Result<Response, Problem> {
     let Query(q) = query.map_err(bad_query)?;
@@ -528,6 +557,7 @@ pub async fn list(
         .all()
         .iter()
         .map(|j| j.snapshot())
+        .filter(|r| caller.may_see(r.owner.as_deref()))
         .filter(|r| status.is_none_or(|s| r.status == s))
         .filter(|r| {
             after

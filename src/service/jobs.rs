@@ -160,6 +160,13 @@ pub struct JobRecord {
     pub attempts: u32,
     /// Whether the sweeper removed the result files after expiry.
     pub result_expired: bool,
+    /// The name of the API key that submitted the job; only that key sees
+    /// it. `None` when the service ran without keys.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub owner: Option<String>,
+    /// Bytes of the stored upload: the mesh and its companion parts.
+    #[serde(default)]
+    pub upload_bytes: u64,
 }
 
 impl JobRecord {
@@ -365,19 +372,27 @@ impl Job {
     }
 }
 
-/// All known jobs, by id, and the idempotency index.
+/// All known jobs, by id, and the idempotency index. Idempotency keys are
+/// scoped by owner: two API keys that send the same `Idempotency-Key` get
+/// two jobs.
 #[derive(Debug, Default)]
 pub struct Registry {
     jobs: RwLock<HashMap<String, Arc<Job>>>,
-    keys: Mutex<HashMap<String, (String, String)>>,
+    keys: Mutex<IdempotencyIndex>,
 }
+
+/// (owner, `Idempotency-Key`) → (request fingerprint, job id).
+type IdempotencyIndex = HashMap<(Option<String>, String), (String, String)>;
 
 impl Registry {
     /// Adds a job (and its idempotency key).
     pub fn insert(&self, job: Arc<Job>) {
         let r = job.snapshot();
         if let Some(i) = &r.idempotency {
-            lock(&self.keys).insert(i.key.clone(), (i.fingerprint.clone(), r.id.clone()));
+            lock(&self.keys).insert(
+                (r.owner.clone(), i.key.clone()),
+                (i.fingerprint.clone(), r.id.clone()),
+            );
         }
         self.jobs
             .write()
@@ -405,9 +420,31 @@ impl Registry {
         Some(job)
     }
 
-    /// The (fingerprint, job id) stored under an idempotency key.
-    pub fn by_key(&self, key: &str) -> Option<(String, String)> {
-        lock(&self.keys).get(key).cloned()
+    /// The (fingerprint, job id) that `owner` stored under an idempotency key.
+    pub fn by_key(&self, owner: Option<&str>, key: &str) -> Option<(String, String)> {
+        lock(&self.keys)
+            .get(&(owner.map(str::to_string), key.to_string()))
+            .cloned()
+    }
+
+    /// What `owner`'s jobs hold: (jobs queued or running, bytes stored in
+    /// uploads and results whose files are still kept).
+    pub fn usage(&self, owner: &str) -> (u64, u64) {
+        let mut active = 0;
+        let mut bytes = 0;
+        for j in self.all() {
+            j.update(|r| {
+                if r.owner.as_deref() != Some(owner) || r.result_expired {
+                    return;
+                }
+                if !r.status.is_finished() {
+                    active += 1;
+                }
+                bytes +=
+                    r.upload_bytes.max(r.input.bytes) + r.result.as_ref().map_or(0, |x| x.bytes);
+            });
+        }
+        (active, bytes)
     }
 
     /// Every job.
@@ -555,6 +592,8 @@ mod tests {
             request_id: None,
             attempts: 0,
             result_expired: false,
+            owner: None,
+            upload_bytes: 0,
         }
     }
 }

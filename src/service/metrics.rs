@@ -30,6 +30,49 @@ pub struct Metrics {
     connections: [AtomicU64; 3],
     /// Connections open now (kept by the accept loop, which owns them).
     connections_open: AtomicU64,
+    /// Requests refused by a key or upload limit, per [`Refusal`].
+    refusals: [AtomicU64; Refusal::ALL.len()],
+}
+
+/// Why a request was refused by an access or resource limit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Refusal {
+    /// No key, or a bad one (401).
+    Unauthorized = 0,
+    /// The key's rate limit (429).
+    RateLimited = 1,
+    /// The key's jobs queued and running at once (429).
+    ActiveJobs = 2,
+    /// The key's stored bytes (429).
+    StoredBytes = 3,
+    /// Uploads in flight, globally (503).
+    UploadsInFlight = 4,
+    /// Bytes of uploads in flight, globally (503).
+    UploadBytesInFlight = 5,
+}
+
+impl Refusal {
+    /// Every refusal, in counter order.
+    pub const ALL: [Refusal; 6] = [
+        Refusal::Unauthorized,
+        Refusal::RateLimited,
+        Refusal::ActiveJobs,
+        Refusal::StoredBytes,
+        Refusal::UploadsInFlight,
+        Refusal::UploadBytesInFlight,
+    ];
+
+    /// The `reason` label.
+    pub fn label(self) -> &'static str {
+        match self {
+            Refusal::Unauthorized => "unauthorized",
+            Refusal::RateLimited => "rate_limited",
+            Refusal::ActiveJobs => "active_jobs",
+            Refusal::StoredBytes => "stored_bytes",
+            Refusal::UploadsInFlight => "uploads_in_flight",
+            Refusal::UploadBytesInFlight => "upload_bytes_in_flight",
+        }
+    }
 }
 
 /// State read at scrape time.
@@ -47,6 +90,10 @@ pub struct Gauges {
     pub jobs: [u64; 5],
     /// Bytes of parsed inputs held for queued jobs.
     pub prepared_bytes: u64,
+    /// Uploads being received or checked.
+    pub uploads_in_flight: u64,
+    /// Their bytes so far.
+    pub upload_bytes_in_flight: u64,
 }
 
 /// How a run ended, for the finished counter.
@@ -111,6 +158,11 @@ impl Metrics {
     /// Counts a connection refused at the cap (every open one was busy).
     pub fn connection_refused(&self) {
         self.connections[2].fetch_add(1, Ordering::Relaxed);
+    }
+
+    /// Counts a request refused by an access or resource limit.
+    pub fn refused(&self, why: Refusal) {
+        self.refusals[why as usize].fetch_add(1, Ordering::Relaxed);
     }
 
     /// The exposition text.
@@ -178,6 +230,26 @@ impl Metrics {
             "counter",
             "HTTP connections: accepted, closed while idle to make room at the connection cap, and refused at the cap because every open one was busy.",
             &connections,
+        );
+        let reasons = Refusal::ALL.map(Refusal::label);
+        let refusals = labelled("reason", &reasons, &self.refusals);
+        metric(
+            "isoremesh_refusals_total",
+            "counter",
+            "Requests refused by an API key, rate, quota or upload limit.",
+            &refusals,
+        );
+        metric(
+            "isoremesh_uploads_in_flight",
+            "gauge",
+            "Uploads being received or checked now.",
+            &one(g.uploads_in_flight.to_string()),
+        );
+        metric(
+            "isoremesh_upload_bytes_in_flight",
+            "gauge",
+            "Bytes of the uploads being received or checked now.",
+            &one(g.upload_bytes_in_flight.to_string()),
         );
         let inputs = labelled("how", &["reused", "parsed"], &self.inputs);
         metric(
@@ -264,6 +336,8 @@ mod tests {
             workers_busy: 1,
             workers: 2,
             jobs: [1, 2, 3, 4, 5],
+            uploads_in_flight: 0,
+            upload_bytes_in_flight: 0,
             prepared_bytes: 7,
         });
         assert!(text.contains("isoremesh_job_duration_seconds_bucket{le=\"0.25\"} 0"));
@@ -289,6 +363,8 @@ mod tests {
             workers_busy: 0,
             workers: 1,
             jobs: [0; 5],
+            uploads_in_flight: 0,
+            upload_bytes_in_flight: 0,
             prepared_bytes: 0,
         });
         assert!(

@@ -11,6 +11,7 @@
 //! | module | owns |
 //! |---|---|
 //! | [`server`] | the [`Service`] object, [`serve`] and [`run`] |
+//! | [`auth`] | API keys, the caller of a request, per-key rate limits and quotas |
 //! | [`config`] | flags and `ISOREMESH_*` variables, limits |
 //! | [`connections`] | the accept loop: connection cap, request-head deadline, graceful close |
 //! | [`routes`] | the route table and [`app`] |
@@ -28,6 +29,7 @@
 //! | [`telemetry`] | tracing setup, request ids, panic hook |
 //! | [`web`] | the web page at `/` and its embedded files |
 
+pub mod auth;
 pub mod bundle;
 pub mod config;
 pub mod connections;

@@ -61,6 +61,14 @@ pub enum ProblemKind {
     /// The job was interrupted (the process stopped or crashed while it ran)
     /// more often than the attempt limit allows.
     TooManyAttempts,
+    /// API keys are configured and the request has none, or a bad one.
+    Unauthorized,
+    /// The key sent more requests than its rate limit allows.
+    RateLimited,
+    /// A per-key quota (jobs at once, bytes stored) would be passed.
+    QuotaExceeded,
+    /// The uploads in flight hold all of the server's upload slots or bytes.
+    UploadsBusy,
     /// A bug or an unexpected failure on our side.
     Internal,
 }
@@ -89,6 +97,10 @@ impl ProblemKind {
             ProblemKind::ResultExpired => "result-expired",
             ProblemKind::JobTimeout => "job-timeout",
             ProblemKind::TooManyAttempts => "too-many-attempts",
+            ProblemKind::Unauthorized => "unauthorized",
+            ProblemKind::RateLimited => "rate-limited",
+            ProblemKind::QuotaExceeded => "quota-exceeded",
+            ProblemKind::UploadsBusy => "uploads-busy",
             ProblemKind::Internal => "internal",
         }
     }
@@ -108,11 +120,14 @@ impl ProblemKind {
             | ProblemKind::TooManyAttempts => StatusCode::UNPROCESSABLE_ENTITY,
             ProblemKind::QueueFull
             | ProblemKind::ShuttingDown
-            | ProblemKind::TooManyConnections => StatusCode::SERVICE_UNAVAILABLE,
+            | ProblemKind::TooManyConnections
+            | ProblemKind::UploadsBusy => StatusCode::SERVICE_UNAVAILABLE,
             ProblemKind::JobNotFound | ProblemKind::NotFound => StatusCode::NOT_FOUND,
             ProblemKind::MethodNotAllowed => StatusCode::METHOD_NOT_ALLOWED,
             ProblemKind::ResultNotReady | ProblemKind::JobFinished => StatusCode::CONFLICT,
             ProblemKind::ResultExpired => StatusCode::GONE,
+            ProblemKind::Unauthorized => StatusCode::UNAUTHORIZED,
+            ProblemKind::RateLimited | ProblemKind::QuotaExceeded => StatusCode::TOO_MANY_REQUESTS,
             ProblemKind::Internal => StatusCode::INTERNAL_SERVER_ERROR,
         }
     }
@@ -140,6 +155,10 @@ impl ProblemKind {
             ProblemKind::ResultExpired => "Result expired",
             ProblemKind::JobTimeout => "Job time limit exceeded",
             ProblemKind::TooManyAttempts => "Job interrupted too often",
+            ProblemKind::Unauthorized => "API key missing or not valid",
+            ProblemKind::RateLimited => "Too many requests",
+            ProblemKind::QuotaExceeded => "Quota exceeded",
+            ProblemKind::UploadsBusy => "Too many uploads in flight",
             ProblemKind::Internal => "Internal error",
         }
     }

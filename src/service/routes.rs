@@ -4,10 +4,12 @@
 //! merged in beside them; they are outside the API. Layers: a request id (`x-request-id`, taken
 //! from the client or generated) set first, a trace span carrying it around
 //! every request, the id echoed in the response, and the body limit that the
-//! multipart parser honours.
+//! multipart parser honours. The `/v1` routes also pass
+//! [`super::auth::require_key`] (API key and rate limit).
 
 use axum::extract::DefaultBodyLimit;
 use axum::http::{HeaderName, Method, Request};
+use axum::middleware;
 use axum::routing::{delete, get, post, MethodRouter};
 use axum::Router;
 use tower_http::request_id::{MakeRequestUuid, PropagateRequestIdLayer, SetRequestIdLayer};
@@ -57,10 +59,18 @@ pub fn route_table() -> Vec<(Method, &'static str)> {
 pub fn app(state: AppState) -> Router {
     let body_limit = usize::try_from(state.config.max_body_bytes).unwrap_or(usize::MAX);
     let request_id = HeaderName::from_static("x-request-id");
-    let router = routes()
+    let (api, open): (Vec<Route>, Vec<Route>) = routes()
         .into_iter()
-        .fold(Router::new(), |router, r| router.route(r.path, r.handler))
-        .merge(super::web::router());
+        .partition(|r| r.path.starts_with("/v1/"));
+    let add = |router: Router<AppState>, r: Route| router.route(r.path, r.handler);
+    let api = api
+        .into_iter()
+        .fold(Router::new(), add)
+        .route_layer(middleware::from_fn_with_state(
+            state.clone(),
+            super::auth::require_key,
+        ));
+    let router = open.into_iter().fold(api, add).merge(super::web::router());
     router
         .fallback(handlers::not_found)
         .method_not_allowed_fallback(handlers::method_not_allowed)

@@ -9,6 +9,7 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
+use super::auth::{Auth, KeyFileError};
 use super::config::{self, ServiceConfig};
 use super::connections::{serve_connections, ConnectionLimits};
 use super::jobs::{now_ms, CancelReason, Job, JobStatus, Registry};
@@ -18,6 +19,7 @@ use super::problem::{Problem, ProblemKind};
 use super::queue::{self, JobQueue, WorkerContext};
 use super::routes::app;
 use super::store::Store;
+use super::upload::UploadGate;
 
 /// Shared state of a running service; handlers get it as `State<AppState>`.
 pub type AppState = Arc<Service>;
@@ -32,6 +34,9 @@ pub enum StartError {
     /// A configuration value is out of range.
     #[error(transparent)]
     Config(#[from] config::ConfigError),
+    /// The API key file cannot be used.
+    #[error("cannot use the API key file: {0}")]
+    Keys(#[from] KeyFileError),
     /// The data directory or a socket failed.
     #[error("{context}: {source}")]
     Io {
@@ -69,6 +74,10 @@ pub struct Service {
     pub parse_permits: tokio::sync::Semaphore,
     /// The memory budget of the parsed inputs handed to the workers.
     pub prepared: Arc<PreparedBudget>,
+    /// The global bounds on uploads in flight.
+    pub uploads: Arc<UploadGate>,
+    /// The API keys and their limits.
+    pub auth: Auth,
     shutting_down: AtomicBool,
     workers: Mutex<Vec<JoinHandle<()>>>,
 }
@@ -78,6 +87,7 @@ impl Service {
     /// Blocking (file system); call it from a blocking context.
     pub fn open(config: ServiceConfig) -> Result<Arc<Service>, StartError> {
         config.validate()?;
+        let auth = Auth::open(config.api_keys.as_deref())?;
         let store = Store::open(&config.data_dir).map_err(io_err(format!(
             "cannot open the data directory {}",
             config.data_dir.display()
@@ -87,6 +97,11 @@ impl Service {
             queue: JobQueue::new(config.queue_capacity),
             parse_permits: tokio::sync::Semaphore::new(workers.max(2)),
             prepared: PreparedBudget::new(config.max_prepared_bytes),
+            uploads: UploadGate::new(
+                config.max_uploads_in_flight,
+                config.max_upload_bytes_in_flight,
+            ),
+            auth,
             config,
             store,
             jobs: Arc::new(Registry::default()),
@@ -270,6 +285,8 @@ impl Service {
             workers: self.config.worker_count(),
             jobs: self.jobs.count_by_status(),
             prepared_bytes: self.prepared.held(),
+            uploads_in_flight: self.uploads.in_flight().0,
+            upload_bytes_in_flight: self.uploads.in_flight().1,
         }
     }
 }
@@ -283,6 +300,34 @@ async fn sweeper(svc: AppState) {
     }
 }
 
+/// Re-reads the API key file on every SIGHUP; a file that cannot be used
+/// is logged and the keys in use stay.
+async fn reload_keys_on_hangup(svc: AppState) {
+    #[cfg(unix)]
+    {
+        use tokio::signal::unix::{signal, SignalKind};
+        if !svc.auth.enabled() {
+            return;
+        }
+        let Ok(mut hangups) = signal(SignalKind::hangup()) else {
+            tracing::warn!("cannot listen for SIGHUP; the API key file is read only at start");
+            return;
+        };
+        while hangups.recv().await.is_some() {
+            let s = Arc::clone(&svc);
+            match tokio::task::spawn_blocking(move || s.auth.reload()).await {
+                Ok(Ok(keys)) => tracing::info!(keys, "API key file re-read"),
+                Ok(Err(e)) => {
+                    tracing::error!(error = %e, "API key file not re-read; the previous keys stay")
+                }
+                Err(e) => tracing::error!(error = %e, "API key reload failed"),
+            }
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = svc;
+}
+
 /// Serves an opened service on `listener` until `shutdown` completes, then
 /// stops accepting, lets running jobs finish within the grace period and
 /// leaves the rest queued for the next start.
@@ -291,7 +336,16 @@ pub async fn serve(
     svc: AppState,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> std::io::Result<()> {
+    match listener.local_addr() {
+        Ok(addr) if !svc.auth.enabled() && !addr.ip().is_loopback() => tracing::warn!(
+            listen = %addr,
+            "no API keys are configured (--api-keys) and the service listens beyond loopback: \
+             anyone who can reach it can submit, read and delete every job"
+        ),
+        _ => {}
+    }
     let sweeper = tokio::spawn(sweeper(Arc::clone(&svc)));
+    let reloader = tokio::spawn(reload_keys_on_hangup(Arc::clone(&svc)));
     let on_signal = {
         let svc = Arc::clone(&svc);
         async move {
@@ -313,6 +367,7 @@ pub async fn serve(
     )
     .await;
     sweeper.abort();
+    reloader.abort();
     svc.drain(svc.config.shutdown_grace()).await;
     served
 }

@@ -5,6 +5,14 @@
 //! optional `params` JSON part and buffer parts named by their `uri`; any
 //! other body is the mesh itself, with its format from `Content-Type` or the
 //! content and its params from the query string.
+//!
+//! Globally, an [`UploadGate`] bounds the uploads in flight and their bytes,
+//! so that concurrent uploads cannot together hold more memory than the
+//! operator allowed: past either bound a submission gets a 503 with
+//! `Retry-After` at once, or as soon as its bytes would pass the budget.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 
 use axum::body::{Body, Bytes};
 use axum::extract::{FromRequest, Multipart, Query, Request};
@@ -13,6 +21,7 @@ use http_body_util::BodyExt;
 use sha2::{Digest, Sha256};
 
 use super::config::ServiceConfig;
+use super::metrics::{Metrics, Refusal};
 use super::problem::{Problem, ProblemKind};
 use crate::io::Format;
 use crate::params::Params;
@@ -34,6 +43,91 @@ pub struct Upload {
     /// and the normalised params: what an `Idempotency-Key` is bound to.
     /// Multipart boundaries and part order of the params do not change it.
     pub fingerprint: String,
+    /// Its share of the global upload budget, held while the upload is.
+    pub permit: UploadPermit,
+}
+
+/// Seconds a client refused at the global upload limits should wait.
+const UPLOADS_RETRY_SECS: u64 = 2;
+
+/// The global bounds on uploads in flight (being received, parsed and
+/// stored) and on their bytes.
+#[derive(Debug)]
+pub struct UploadGate {
+    max_uploads: u64,
+    max_bytes: u64,
+    uploads: AtomicU64,
+    bytes: AtomicU64,
+}
+
+/// One upload's share of an [`UploadGate`], returned when dropped.
+#[derive(Debug)]
+pub struct UploadPermit {
+    gate: Arc<UploadGate>,
+    bytes: u64,
+}
+
+impl Drop for UploadPermit {
+    fn drop(&mut self) {
+        self.gate.bytes.fetch_sub(self.bytes, Ordering::SeqCst);
+        self.gate.uploads.fetch_sub(1, Ordering::SeqCst);
+    }
+}
+
+fn busy(why: &str) -> Problem {
+    Problem::new(ProblemKind::UploadsBusy, why.to_string()).with_retry_after(UPLOADS_RETRY_SECS)
+}
+
+impl UploadGate {
+    /// A gate admitting `max_uploads` uploads of `max_bytes` bytes in all.
+    pub fn new(max_uploads: u64, max_bytes: u64) -> Arc<Self> {
+        Arc::new(Self {
+            max_uploads,
+            max_bytes,
+            uploads: AtomicU64::new(0),
+            bytes: AtomicU64::new(0),
+        })
+    }
+
+    /// (uploads, bytes) in flight now.
+    pub fn in_flight(&self) -> (u64, u64) {
+        (
+            self.uploads.load(Ordering::SeqCst),
+            self.bytes.load(Ordering::SeqCst),
+        )
+    }
+
+    /// Admits one more upload, or refuses it when all slots are taken.
+    fn enter(self: &Arc<Self>) -> Option<UploadPermit> {
+        let taken = self
+            .uploads
+            .fetch_update(Ordering::SeqCst, Ordering::SeqCst, |n| {
+                (n < self.max_uploads).then_some(n + 1)
+            });
+        taken.ok().map(|_| UploadPermit {
+            gate: Arc::clone(self),
+            bytes: 0,
+        })
+    }
+}
+
+impl UploadPermit {
+    /// Counts `n` more bytes of this upload; `false` (nothing counted) when
+    /// they would pass the global byte budget.
+    fn grow(&mut self, n: u64) -> bool {
+        let max = self.gate.max_bytes;
+        let ok = self
+            .gate
+            .bytes
+            .fetch_update(Ordering::SeqCst, Ordering::SeqCst, |b| {
+                (b + n <= max).then_some(b + n)
+            })
+            .is_ok();
+        if ok {
+            self.bytes += n;
+        }
+        ok
+    }
 }
 
 fn too_large(limit: u64) -> Problem {
@@ -51,8 +145,13 @@ fn too_large(limit: u64) -> Problem {
 const LINGER_BYTES: u64 = 1 << 20;
 
 /// Reads the whole body, failing past `limit` bytes (after draining up to
-/// [`LINGER_BYTES`] more).
-async fn read_limited(mut body: Body, limit: u64) -> Result<Bytes, Problem> {
+/// [`LINGER_BYTES`] more) or when the global budget is spent.
+async fn read_limited(
+    mut body: Body,
+    limit: u64,
+    permit: &mut UploadPermit,
+    metrics: &Metrics,
+) -> Result<Bytes, Problem> {
     let mut buf: Vec<u8> = Vec::new();
     let mut seen: u64 = 0;
     while let Some(frame) = body.frame().await {
@@ -68,6 +167,13 @@ async fn read_limited(mut body: Body, limit: u64) -> Result<Bytes, Problem> {
                 break;
             }
             if seen <= limit {
+                if !permit.grow(data.len() as u64) {
+                    metrics.refused(Refusal::UploadBytesInFlight);
+                    return Err(busy(&format!(
+                        "the uploads in flight hold the server's budget of {} bytes; retry later",
+                        permit.gate.max_bytes
+                    )));
+                }
                 buf.extend_from_slice(&data);
             } else {
                 buf = Vec::new();
@@ -84,8 +190,13 @@ fn bad_request(detail: impl Into<String>) -> Problem {
     Problem::new(ProblemKind::InvalidRequest, detail)
 }
 
-/// Reads and splits a submission.
-pub async fn read_upload(req: Request, cfg: &ServiceConfig) -> Result<Upload, Problem> {
+/// Reads and splits a submission under the gate's global bounds.
+pub async fn read_upload(
+    req: Request,
+    cfg: &ServiceConfig,
+    gate: &Arc<UploadGate>,
+    metrics: &Metrics,
+) -> Result<Upload, Problem> {
     let (parts, body) = req.into_parts();
     let declared = parts
         .headers
@@ -95,7 +206,15 @@ pub async fn read_upload(req: Request, cfg: &ServiceConfig) -> Result<Upload, Pr
     if declared.is_some_and(|n| n > cfg.max_body_bytes + LINGER_BYTES) {
         return Err(too_large(cfg.max_body_bytes));
     }
-    let bytes = tokio::time::timeout(cfg.upload_timeout(), read_limited(body, cfg.max_body_bytes))
+    let Some(mut permit) = gate.enter() else {
+        metrics.refused(Refusal::UploadsInFlight);
+        return Err(busy(&format!(
+            "{} uploads are in flight, the server's limit; retry later",
+            gate.max_uploads
+        )));
+    };
+    let read = read_limited(body, cfg.max_body_bytes, &mut permit, metrics);
+    let bytes = tokio::time::timeout(cfg.upload_timeout(), read)
         .await
         .map_err(|_| {
             Problem::new(
@@ -145,6 +264,7 @@ pub async fn read_upload(req: Request, cfg: &ServiceConfig) -> Result<Upload, Pr
         params,
         buffers,
         fingerprint,
+        permit,
     })
 }
 

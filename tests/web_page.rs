@@ -154,6 +154,43 @@ fn a_person_remeshes_meshes_in_the_browser() {
     s.stop();
 }
 
+/// On a server with API keys the page asks for one, shows the server's
+/// refusal of a wrong key, and with the right one remeshes, lists the job
+/// and downloads the result, all sending the key.
+#[test]
+fn the_page_asks_for_an_api_key_and_uses_it() {
+    let Some((tools, _run)) = BROWSER.acquire(probe) else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let keys = dir.path().join("keys.jsonl");
+    let out = Command::new(env!("CARGO_BIN_EXE_isoremesh"))
+        .args(["keys", "new", "browser", "--file"])
+        .arg(&keys)
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let key = String::from_utf8(out.stdout).unwrap().trim().to_string();
+    let mut c = config(&dir.path().join("data"));
+    c.api_keys = Some(keys);
+    let s = Server::start(c);
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
+    let out = artefacts("keys");
+    let result = run_page_script(
+        &tools,
+        &[
+            "keys",
+            &s.base,
+            out.to_str().unwrap(),
+            data.to_str().unwrap(),
+            &key,
+        ],
+    );
+    eprintln!("web page with keys: {result}");
+    assert!(result["glb_bytes"].as_u64().unwrap() > 100);
+    s.stop();
+}
+
 /// The 1M-triangle bench torus (2000 × 250 quads) remeshed to about a
 /// million triangles through the page, then drawn in every mode: each side
 /// shows the torus, the output is mostly inside the band, a moving view

@@ -355,9 +355,45 @@ async function frameTime() {
   }
 }
 
+/**
+ * Against a server with API keys (`arg` is tests/data, `arg2` a valid key):
+ * the page asks for a key, refuses a wrong one with the server's problem,
+ * and with the right one submits, shows the result, lists the job and
+ * downloads the result with the key.
+ */
+async function keys() {
+  const data = arg;
+  const browser = await launch();
+  const result = {};
+  try {
+    const { page, problems } = await openPage(browser);
+    await page.waitForFunction(() => document.body.dataset.needsKey === 'true');
+    assert.ok(await page.isVisible('#key-form'), 'the key form is hidden on a server with keys');
+    await page.fill('#api-key', 'irk_wrong');
+    await page.click('#use-key');
+    await page.waitForFunction(() => /not valid/.test(document.getElementById('problem').textContent));
+    await page.fill('#api-key', arg2);
+    await page.click('#use-key');
+    const job = await remesh(page, [path.join(data, 'cube.obj')]);
+    assert.equal(job.status, 'succeeded', JSON.stringify(job.error));
+    const glb = await download(page, 'glb');
+    assert.equal(glb.subarray(0, 4).toString('latin1'), 'glTF', 'the download is not the GLB result');
+    await page.click('#refresh-jobs');
+    await page.waitForFunction((id) => document.getElementById('jobs').tBodies[0].rows.length === 1 && window.isoremesh.state.job.id === id, job.id);
+    result.job = job.id;
+    result.glb_bytes = glb.length;
+    assert.deepEqual(problems, []);
+  } finally {
+    await browser.close();
+  }
+  return result;
+}
+
 await mkdir(outDir, { recursive: true });
 try {
-  const result = scenario === 'flow' ? await flow() : await frameTime();
+  const scenarios = { flow, keys, 'frame-time': frameTime };
+  if (!scenarios[scenario]) throw new Error(`unknown scenario ${scenario}`);
+  const result = await scenarios[scenario]();
   console.log(`RESULT ${JSON.stringify(result)}`);
 } catch (e) {
   console.error(e.stack || String(e));

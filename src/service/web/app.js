@@ -21,6 +21,11 @@ function setStatus(text) {
 }
 
 function showProblem(p) {
+  // A 401 means the server runs with API keys: ask for one.
+  if (p?.status === 401) {
+    $('key-form').hidden = false;
+    document.body.dataset.needsKey = 'true';
+  }
   const box = $('problem');
   box.replaceChildren();
   if (!p) {
@@ -299,5 +304,36 @@ async function openJob(id) {
 
 $('refresh-jobs').addEventListener('click', refreshJobs);
 
+// ---- API key ----
+
+$('key-form').addEventListener('submit', (e) => {
+  e.preventDefault();
+  api.setApiKey($('api-key').value.trim());
+  $('api-key').value = '';
+  delete document.body.dataset.needsKey;
+  showProblem(null);
+  refreshJobs();
+});
+
+// Result links carry no header: with a key, a click fetches the file with
+// the key and saves it from memory instead.
+$('downloads').addEventListener('click', async (e) => {
+  const a = e.target.closest('a');
+  if (!a || !api.apiKey() || a.href.startsWith('blob:')) return;
+  e.preventDefault();
+  try {
+    const { blob, name } = await api.resultFile(a.href);
+    const url = URL.createObjectURL(blob);
+    const save = document.createElement('a');
+    save.href = url;
+    save.download = name;
+    save.click();
+    setTimeout(() => URL.revokeObjectURL(url), 60_000);
+  } catch (err) {
+    showProblem(err.problem ?? { title: 'Cannot download', detail: err.message });
+  }
+});
+
+if (api.apiKey()) $('key-form').hidden = false;
 fillDefaults().catch((err) => showProblem({ title: 'Cannot read the defaults', detail: err.message }));
 refreshJobs();

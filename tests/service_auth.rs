@@ -434,6 +434,52 @@ fn a_running_binary_reads_a_new_key_on_sighup() {
     let _ = child.wait();
 }
 
+/// The access log of the real binary: a refusal names its problem type,
+/// its field and the peer; a client's request id is quoted, so it cannot
+/// forge fields; a log written to a pipe has no colours.
+#[test]
+fn refusals_are_logged_with_type_field_and_peer_and_client_values_quoted() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("keys.jsonl");
+    new_key(&file, "alice", &[]);
+    let (mut child, base, log) = spawn_binary_logged(
+        &dir.path().join("data"),
+        &["--api-keys", file.to_str().unwrap()],
+    );
+    let forged = "x\" problem=forged peer=\"10.0.0.1";
+    let r = Client::new()
+        .get(format!("{base}/v1/jobs"))
+        .header("x-request-id", forged)
+        .send()
+        .unwrap();
+    assert_eq!(r.status(), 401);
+    let t0 = Instant::now();
+    let line = loop {
+        let found = log
+            .lock()
+            .unwrap()
+            .iter()
+            .find(|l| l.contains("request refused"))
+            .cloned();
+        if let Some(l) = found {
+            break l;
+        }
+        assert!(t0.elapsed() < Duration::from_secs(10), "no refusal logged");
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    child.kill().unwrap();
+    let _ = child.wait();
+    assert!(line.contains("problem=unauthorized"), "{line}");
+    assert!(line.contains("field=\"Authorization\""), "{line}");
+    assert!(line.contains("peer=127.0.0.1:"), "{line}");
+    assert!(line.contains("status=401"), "{line}");
+    assert!(
+        line.contains(r#"request_id="x\" problem=forged peer=\"10.0.0.1""#),
+        "the request id is not quoted: {line}"
+    );
+    assert!(!line.contains('\u{1b}'), "colours in a piped log: {line:?}");
+}
+
 #[test]
 fn keys_new_refuses_a_second_key_of_one_name_in_one_line() {
     let dir = tempfile::tempdir().unwrap();

@@ -603,6 +603,55 @@ fn real_responses_validate_against_the_spec() {
     drop(rec);
     s.stop();
 
+    // A fourth server whose job directory turns into a file: DELETE cannot
+    // remove it (503) and the job stays.
+    let dir5 = tempfile::tempdir().unwrap();
+    let s = Server::start(config(dir5.path()));
+    let mut rec = Recorder {
+        s: &s,
+        seen: vec![],
+    };
+    let job = rec.submit("cube.obj", cube.clone(), json!({"iterations": 1}));
+    let job = job["id"].as_str().unwrap().to_string();
+    s.wait_finished(&job);
+    let jd = dir5.path().join("jobs").join(&job);
+    std::fs::remove_dir_all(&jd).unwrap();
+    std::fs::write(&jd, b"not a directory").unwrap();
+    let r = s
+        .client
+        .delete(s.url(&format!("/v1/jobs/{job}")))
+        .send()
+        .unwrap();
+    rec.record("DELETE", "/v1/jobs/{id}", r);
+    assert_eq!(rec.seen.last().unwrap().status, 503);
+    assert_eq!(s.get(&format!("/v1/jobs/{job}")).status(), 200);
+    std::fs::remove_file(&jd).unwrap();
+    assert_eq!(
+        s.client
+            .delete(s.url(&format!("/v1/jobs/{job}")))
+            .send()
+            .unwrap()
+            .status(),
+        204
+    );
+    seen.append(&mut rec.seen);
+    drop(rec);
+    s.stop();
+
+    // A fifth server whose free-space reserve no disk meets (507).
+    let dir4 = tempfile::tempdir().unwrap();
+    let mut cfg = config(dir4.path());
+    cfg.min_free_bytes = u64::MAX / 4;
+    let s = Server::start(cfg);
+    let mut rec = Recorder {
+        s: &s,
+        seen: vec![],
+    };
+    rec.submit("cube.obj", cube.clone(), json!({"iterations": 1}));
+    seen.append(&mut rec.seen);
+    drop(rec);
+    s.stop();
+
     let mut statuses = BTreeSet::new();
     let mut errors = vec![];
     for r in &seen {

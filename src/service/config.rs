@@ -36,6 +36,8 @@ pub const DEFAULT_HEADER_TIMEOUT_SECS: u64 = 10;
 pub const DEFAULT_MAX_UPLOADS_IN_FLIGHT: u64 = 16;
 /// Default cap on the bytes of those uploads together: 1 GiB.
 pub const DEFAULT_MAX_UPLOAD_BYTES_IN_FLIGHT: u64 = 1 << 30;
+/// Default free space kept in the data directory: 256 MiB.
+pub const DEFAULT_MIN_FREE_BYTES: u64 = 256 << 20;
 /// Default lifetime of a finished job and its result.
 pub const DEFAULT_RESULT_TTL_SECS: u64 = 86_400;
 /// Default time running jobs get to finish at shutdown.
@@ -108,6 +110,10 @@ pub struct ServiceConfig {
     /// pass it gets a `uploads-busy` 503. At least `--max-body-bytes`.
     #[arg(long, env = "ISOREMESH_MAX_UPLOAD_BYTES_IN_FLIGHT", default_value_t = DEFAULT_MAX_UPLOAD_BYTES_IN_FLIGHT)]
     pub max_upload_bytes_in_flight: u64,
+    /// Bytes that must stay free in the data directory: below it `/readyz`
+    /// answers 503, and a submission that would pass it gets 507.
+    #[arg(long, env = "ISOREMESH_MIN_FREE_BYTES", default_value_t = DEFAULT_MIN_FREE_BYTES)]
+    pub min_free_bytes: u64,
     /// API key file (made by `isoremesh keys new`): when set, every `/v1`
     /// request needs `Authorization: Bearer <key>` and each key sees only
     /// its own jobs. Re-read on SIGHUP. Without it the service is open.
@@ -151,6 +157,7 @@ impl ServiceConfig {
             max_uploads_in_flight: DEFAULT_MAX_UPLOADS_IN_FLIGHT,
             max_upload_bytes_in_flight: DEFAULT_MAX_UPLOAD_BYTES_IN_FLIGHT,
             api_keys: None,
+            min_free_bytes: DEFAULT_MIN_FREE_BYTES,
             log_json: false,
         }
     }

@@ -199,8 +199,11 @@ pub struct JobList {
 /// `GET /healthz` and `GET /readyz`.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Health {
-    /// `ok`, `ready` or `shutting_down`.
+    /// `ok`, `ready`, `shutting_down` or `storage_unavailable`.
     pub status: String,
+    /// Why the service is not ready, when it is not.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub detail: Option<String>,
     /// Jobs waiting.
     pub queue_depth: usize,
     /// Queue capacity.

@@ -20,7 +20,7 @@ use super::jobs::{now_ms, CancelReason, Idempotency, InputInfo, Job, JobRecord, 
 use super::params::{estimate_output, InputGeometry};
 use super::problem::{Problem, ProblemKind};
 use super::server::{AppState, Service};
-use super::store::is_job_id;
+use super::store::{is_job_id, StorageFault};
 use super::upload::{read_upload, Upload};
 use crate::io::{Format, ReadOptions};
 use crate::params::Params;
@@ -274,15 +274,39 @@ pub async fn submit(
     }
     {
         let svc = Arc::clone(&svc);
-        blocking(move || svc.store.create_job(&record, &upload.mesh, &upload.buffers))
-            .await?
-            .map_err(|e| Problem::internal("the upload could not be stored", e))?;
+        blocking(move || {
+            svc.store
+                .check_writable(svc.config.min_free_bytes, upload_bytes)
+                .map_err(storage_problem)?;
+            svc.store
+                .create_job(&record, &upload.mesh, &upload.buffers)
+                .map_err(|e| storage_problem(StorageFault::from_io(e)))
+        })
+        .await??;
     }
     svc.jobs.insert(Arc::clone(&job));
     slot.commit(id.clone());
     svc.metrics.job_submitted();
     tracing::info!(job_id = %id, "job queued");
     Ok(job_response(StatusCode::ACCEPTED, &job, true))
+}
+
+/// A storage fault as the client's problem: 507 when space ran out, 503
+/// when the directory cannot be written. Never a 500: the client did
+/// nothing wrong, and a retry elsewhere or later may pass.
+fn storage_problem(f: StorageFault) -> Problem {
+    tracing::error!(error = %f, "data directory fault");
+    match f {
+        StorageFault::Full { .. } | StorageFault::OutOfSpace(_) => Problem::new(
+            ProblemKind::InsufficientStorage,
+            format!("the upload was not stored: {f}"),
+        ),
+        StorageFault::NotWritable(_) => Problem::new(
+            ProblemKind::StorageUnavailable,
+            "the upload was not stored: the data directory is not writable; the cause was logged",
+        )
+        .with_retry_after(BUSY_RETRY_SECS),
+    }
 }
 
 fn shutting_down() -> Problem {
@@ -355,7 +379,16 @@ pub async fn delete(
     svc.jobs.remove(&id);
     let s = Arc::clone(&svc);
     let j = Arc::clone(&job);
-    blocking(move || s.remove(&j)).await?;
+    if blocking(move || s.remove(&j)).await?.is_err() {
+        // Keep the job reachable, so that the client can retry the DELETE
+        // instead of believing it gone while its files stay.
+        svc.jobs.insert(job);
+        return Err(Problem::new(
+            ProblemKind::StorageUnavailable,
+            "the job's files could not be removed; it is cancelled but not deleted: retry the DELETE",
+        )
+        .with_retry_after(BUSY_RETRY_SECS));
+    }
     tracing::info!(job_id = %id, "job deleted");
     Ok(StatusCode::NO_CONTENT.into_response())
 }
@@ -590,6 +623,7 @@ fn health(svc: &Service, status: &str) -> Health {
     let g = svc.gauges();
     Health {
         status: status.to_string(),
+        detail: None,
         queue_depth: g.queue_depth,
         queue_capacity: g.queue_capacity,
         workers_busy: g.workers_busy,
@@ -602,16 +636,23 @@ pub async fn healthz(State(svc): State<AppState>) -> Response {
     Json(health(&svc, "ok")).into_response()
 }
 
-/// `GET /readyz`: 200 while accepting jobs, 503 once shutting down.
+/// `GET /readyz`: 200 while accepting jobs; 503 once shutting down, or
+/// while the data directory is not writable or has less free space than
+/// `--min-free-bytes`.
 pub async fn readyz(State(svc): State<AppState>) -> Response {
+    let unavailable = |status: &str, detail: Option<String>| {
+        let mut h = health(&svc, status);
+        h.detail = detail;
+        (StatusCode::SERVICE_UNAVAILABLE, Json(h)).into_response()
+    };
     if svc.is_shutting_down() {
-        (
-            StatusCode::SERVICE_UNAVAILABLE,
-            Json(health(&svc, "shutting_down")),
-        )
-            .into_response()
-    } else {
-        Json(health(&svc, "ready")).into_response()
+        return unavailable("shutting_down", None);
+    }
+    let s = Arc::clone(&svc);
+    match blocking(move || s.store.check_writable(s.config.min_free_bytes, 0)).await {
+        Ok(Ok(())) => Json(health(&svc, "ready")).into_response(),
+        Ok(Err(f)) => unavailable("storage_unavailable", Some(f.to_string())),
+        Err(p) => p.into_response(),
     }
 }
 

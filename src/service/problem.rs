@@ -69,6 +69,10 @@ pub enum ProblemKind {
     QuotaExceeded,
     /// The uploads in flight hold all of the server's upload slots or bytes.
     UploadsBusy,
+    /// The data directory has too little free space for the upload.
+    InsufficientStorage,
+    /// The data directory cannot be written (or a file cannot be removed).
+    StorageUnavailable,
     /// A bug or an unexpected failure on our side.
     Internal,
 }
@@ -101,6 +105,8 @@ impl ProblemKind {
             ProblemKind::RateLimited => "rate-limited",
             ProblemKind::QuotaExceeded => "quota-exceeded",
             ProblemKind::UploadsBusy => "uploads-busy",
+            ProblemKind::InsufficientStorage => "insufficient-storage",
+            ProblemKind::StorageUnavailable => "storage-unavailable",
             ProblemKind::Internal => "internal",
         }
     }
@@ -121,7 +127,9 @@ impl ProblemKind {
             ProblemKind::QueueFull
             | ProblemKind::ShuttingDown
             | ProblemKind::TooManyConnections
-            | ProblemKind::UploadsBusy => StatusCode::SERVICE_UNAVAILABLE,
+            | ProblemKind::UploadsBusy
+            | ProblemKind::StorageUnavailable => StatusCode::SERVICE_UNAVAILABLE,
+            ProblemKind::InsufficientStorage => StatusCode::INSUFFICIENT_STORAGE,
             ProblemKind::JobNotFound | ProblemKind::NotFound => StatusCode::NOT_FOUND,
             ProblemKind::MethodNotAllowed => StatusCode::METHOD_NOT_ALLOWED,
             ProblemKind::ResultNotReady | ProblemKind::JobFinished => StatusCode::CONFLICT,
@@ -159,6 +167,8 @@ impl ProblemKind {
             ProblemKind::RateLimited => "Too many requests",
             ProblemKind::QuotaExceeded => "Quota exceeded",
             ProblemKind::UploadsBusy => "Too many uploads in flight",
+            ProblemKind::InsufficientStorage => "Insufficient storage",
+            ProblemKind::StorageUnavailable => "Storage unavailable",
             ProblemKind::Internal => "Internal error",
         }
     }
@@ -288,8 +298,26 @@ impl Problem {
     }
 }
 
+/// What a problem response carries for the access log (a response
+/// extension): the kind and the field at fault.
+#[derive(Clone, Debug)]
+pub struct Logged {
+    /// The problem's slug (`unauthorized`, `invalid-parameter`, …).
+    pub slug: String,
+    /// The field at fault, if any.
+    pub field: Option<String>,
+}
+
 impl IntoResponse for Problem {
     fn into_response(self) -> Response {
+        let logged = Logged {
+            slug: self
+                .kind
+                .strip_prefix("urn:isoremesh:problem:")
+                .unwrap_or(&self.kind)
+                .to_string(),
+            field: self.field.clone(),
+        };
         let status = StatusCode::from_u16(self.status).unwrap_or(StatusCode::INTERNAL_SERVER_ERROR);
         let retry = self.retry_after;
         let body = serde_json::to_vec(&self).unwrap_or_default();
@@ -299,6 +327,7 @@ impl IntoResponse for Problem {
         if let Some(s) = retry {
             h.insert(header::RETRY_AFTER, HeaderValue::from(s));
         }
+        resp.extensions_mut().insert(logged);
         resp
     }
 }

@@ -5,19 +5,23 @@
 //! from the client or generated) set first, a trace span carrying it around
 //! every request, the id echoed in the response, and the body limit that the
 //! multipart parser honours. The `/v1` routes also pass
-//! [`super::auth::require_key`] (API key and rate limit).
+//! [`super::auth::require_key`] (API key and rate limit), and every
+//! response is logged once, a problem with its type and field.
 
-use axum::extract::DefaultBodyLimit;
+use std::net::SocketAddr;
+use std::time::Duration;
+
+use axum::extract::{ConnectInfo, DefaultBodyLimit};
 use axum::http::{HeaderName, Method, Request};
 use axum::middleware;
+use axum::response::Response;
 use axum::routing::{delete, get, post, MethodRouter};
 use axum::Router;
 use tower_http::request_id::{MakeRequestUuid, PropagateRequestIdLayer, SetRequestIdLayer};
-use tower_http::trace::{DefaultOnResponse, TraceLayer};
-use tower_http::LatencyUnit;
-use tracing::Level;
+use tower_http::trace::TraceLayer;
 
 use super::handlers;
+use super::problem::Logged;
 use super::server::AppState;
 
 /// One route: method, path (axum syntax, `{id}`), handler.
@@ -85,18 +89,47 @@ pub fn app(state: AppState) -> Router {
                         .get("x-request-id")
                         .and_then(|v| v.to_str().ok())
                         .unwrap_or("-");
+                    let peer = req
+                        .extensions()
+                        .get::<ConnectInfo<SocketAddr>>()
+                        .map(|c| c.0.to_string())
+                        .unwrap_or_else(|| "-".into());
+                    // Client-supplied values go in as Debug: quoted and
+                    // escaped, so they cannot forge fields or lines.
                     tracing::info_span!(
                         "request",
-                        request_id = %id,
+                        request_id = ?id,
+                        peer = %peer,
                         method = %req.method(),
-                        path = %req.uri().path()
+                        path = ?req.uri().path()
                     )
                 })
-                .on_response(
-                    DefaultOnResponse::new()
-                        .level(Level::INFO)
-                        .latency_unit(LatencyUnit::Micros),
-                ),
+                .on_response(log_response),
         )
         .layer(SetRequestIdLayer::new(request_id, MakeRequestUuid))
+}
+
+/// One line per response, in the request's span (request id, peer, method,
+/// path): a problem answer names its type and field, so that a refusal can
+/// be traced to the rule and the client that met it.
+fn log_response(resp: &Response, latency: Duration, _span: &tracing::Span) {
+    let status = resp.status().as_u16();
+    let micros = latency.as_micros() as u64;
+    match resp.extensions().get::<Logged>() {
+        Some(p) if status >= 500 => tracing::warn!(
+            status,
+            latency_us = micros,
+            problem = %p.slug,
+            field = ?p.field.as_deref().unwrap_or("-"),
+            "request failed"
+        ),
+        Some(p) => tracing::info!(
+            status,
+            latency_us = micros,
+            problem = %p.slug,
+            field = ?p.field.as_deref().unwrap_or("-"),
+            "request refused"
+        ),
+        None => tracing::info!(status, latency_us = micros, "request done"),
+    }
 }

@@ -189,14 +189,15 @@ impl Service {
         self.store.persist(job);
     }
 
-    /// Removes a job and its files (it must already be unreachable for workers).
-    pub fn remove(&self, job: &Job) {
+    /// Removes a job and its files (it must already be unreachable for
+    /// workers); a failure is logged and returned.
+    pub fn remove(&self, job: &Job) -> std::io::Result<()> {
         job.mark_deleted();
         let _g = job.persist_lock.lock().unwrap_or_else(|p| p.into_inner());
         let id = job.id();
-        if let Err(e) = self.store.remove_job(&id) {
+        self.store.remove_job(&id).inspect_err(|e| {
             tracing::error!(job_id = %id, error = %e, "cannot remove job files");
-        }
+        })
     }
 
     /// Whether shutdown has begun.
@@ -256,7 +257,7 @@ impl Service {
             }
             if now >= expires.saturating_add(keep) {
                 if self.jobs.remove(&r.id).is_some() {
-                    self.remove(&job);
+                    let _ = self.remove(&job);
                     tracing::info!(job_id = %r.id, "expired job forgotten");
                 }
             } else if !r.result_expired {

@@ -15,7 +15,8 @@
 //! A job exists once its `job.json` does; a directory without one is an
 //! interrupted submission and is removed at startup. Results are written
 //! before the record that says `succeeded`, so a finished record always has
-//! its files. `result.mesh` is the exact binary form of [`TriMesh`] written by
+//! its files. A job directory whose record cannot be parsed is moved to
+//! `<data-dir>/quarantine/`. `result.mesh` is the exact binary form of [`TriMesh`] written by
 //! `crate::io::result_mesh`.
 
 use std::collections::HashMap;
@@ -55,13 +56,79 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
         .and_then(|n| n.to_str())
         .ok_or_else(|| io::Error::other("path has no file name"))?;
     let tmp = dir.join(format!(".{name}.tmp"));
-    {
+    let written = (|| {
         let mut f = File::create(&tmp)?;
         f.write_all(bytes)?;
         f.sync_all()?;
+        fs::rename(&tmp, path)
+    })();
+    if written.is_err() {
+        // A full disk must not also keep the half-written copy.
+        let _ = fs::remove_file(&tmp);
     }
-    fs::rename(&tmp, path)?;
+    written?;
     sync_dir(dir)
+}
+
+/// Whether an I/O error means the storage is out of space (or quota).
+pub fn is_out_of_space(e: &io::Error) -> bool {
+    matches!(
+        e.kind(),
+        io::ErrorKind::StorageFull | io::ErrorKind::QuotaExceeded | io::ErrorKind::FileTooLarge
+    )
+}
+
+/// Why the data directory cannot take new jobs now.
+#[derive(Debug, thiserror::Error)]
+pub enum StorageFault {
+    /// Less free space than the configured reserve.
+    #[error("the data directory has {free} bytes free, under the reserve of {reserve} bytes")]
+    Full {
+        /// Bytes available to the service.
+        free: u64,
+        /// `--min-free-bytes`.
+        reserve: u64,
+    },
+    /// A write ran out of space (or quota).
+    #[error("the data directory ran out of space: {0}")]
+    OutOfSpace(io::Error),
+    /// A file cannot be written there.
+    #[error("the data directory is not writable: {0}")]
+    NotWritable(io::Error),
+}
+
+impl StorageFault {
+    /// Classifies a failed write.
+    pub fn from_io(e: io::Error) -> Self {
+        if is_out_of_space(&e) {
+            StorageFault::OutOfSpace(e)
+        } else {
+            StorageFault::NotWritable(e)
+        }
+    }
+}
+
+/// Bytes available to unprivileged writers on the file system of `dir`;
+/// `None` where it cannot be asked.
+fn free_bytes(dir: &Path) -> Option<u64> {
+    #[cfg(target_os = "linux")]
+    {
+        use std::os::unix::ffi::OsStrExt;
+        let c = std::ffi::CString::new(dir.as_os_str().as_bytes()).ok()?;
+        // SAFETY: statvfs reads the NUL-terminated path and writes only into
+        // the zeroed struct we own; it is valid for the duration of the call.
+        let mut st: libc::statvfs = unsafe { std::mem::zeroed() };
+        let rc = unsafe { libc::statvfs(c.as_ptr(), &mut st) };
+        // The fields are narrower than u64 on some targets.
+        #[allow(clippy::useless_conversion)]
+        let free = u64::from(st.f_bavail).saturating_mul(u64::from(st.f_frsize));
+        (rc == 0).then_some(free)
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        let _ = dir;
+        None
+    }
 }
 
 impl Store {
@@ -77,6 +144,25 @@ impl Store {
             return Err(io::Error::new(io::ErrorKind::InvalidInput, "bad job id"));
         }
         Ok(self.jobs.join(id))
+    }
+
+    /// Checks that a file can be written in the data directory and that at
+    /// least `reserve + extra` bytes are free there.
+    pub fn check_writable(&self, reserve: u64, extra: u64) -> Result<(), StorageFault> {
+        let probe = self.jobs.join(".probe");
+        let wrote = File::create(&probe)
+            .and_then(|mut f| f.write_all(b"ok").and_then(|_| f.sync_all()))
+            .and_then(|_| fs::remove_file(&probe));
+        if let Err(e) = wrote {
+            let _ = fs::remove_file(&probe);
+            return Err(StorageFault::from_io(e));
+        }
+        match free_bytes(&self.jobs) {
+            Some(free) if free < reserve.saturating_add(extra) => {
+                Err(StorageFault::Full { free, reserve })
+            }
+            _ => Ok(()),
+        }
     }
 
     /// Stores a new job: its uploads first, the record last.
@@ -179,8 +265,26 @@ impl Store {
         }
     }
 
+    /// Moves a job directory whose record cannot be used to
+    /// `<data-dir>/quarantine/<id>` (with a suffix if that exists), so that
+    /// it is neither loaded again at every start nor lost; `None` if it
+    /// could not be moved.
+    fn quarantine(&self, dir: &Path, name: &str) -> Option<PathBuf> {
+        let root = self.jobs.parent()?.join("quarantine");
+        fs::create_dir_all(&root).ok()?;
+        let mut to = root.join(name);
+        let mut n = 1;
+        while to.exists() {
+            to = root.join(format!("{name}.{n}"));
+            n += 1;
+        }
+        fs::rename(dir, &to).ok()?;
+        Some(to)
+    }
+
     /// Reads every job record. Directories without a record (interrupted
-    /// submissions) are removed; unreadable records are reported and skipped.
+    /// submissions) are removed; records that cannot be parsed are reported
+    /// and moved to the quarantine folder.
     pub fn load_all(&self) -> io::Result<Vec<JobRecord>> {
         let mut out = Vec::new();
         for entry in fs::read_dir(&self.jobs)? {
@@ -199,10 +303,12 @@ impl Store {
                 Ok(bytes) => match serde_json::from_slice::<JobRecord>(&bytes) {
                     Ok(r) if r.id == name => out.push(r),
                     Ok(_) => {
-                        tracing::error!(job_id = %name, "job record names another id; skipped")
+                        let to = self.quarantine(&path, &name);
+                        tracing::error!(job_id = %name, moved_to = ?to.as_deref().map(Path::display).map(|d| d.to_string()), "job record names another id; moved to quarantine")
                     }
                     Err(e) => {
-                        tracing::error!(job_id = %name, error = %e, "corrupt job record; skipped")
+                        let to = self.quarantine(&path, &name);
+                        tracing::error!(job_id = %name, error = %e, moved_to = ?to.as_deref().map(Path::display).map(|d| d.to_string()), "corrupt job record; moved to quarantine")
                     }
                 },
             }

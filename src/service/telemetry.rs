@@ -1,7 +1,10 @@
 //! Logging for the service: tracing with a human-readable or JSON format,
 //! filtered by `RUST_LOG` (default `info`), and a panic hook that reports
 //! panics through tracing so they carry the current request or job span
-//! (and so its request id or job id) like every other line.
+//! (and so its request id or job id) like every other line. Text logs carry
+//! colours only when stderr is a terminal.
+
+use std::io::IsTerminal;
 
 use tracing_subscriber::EnvFilter;
 
@@ -10,7 +13,9 @@ pub fn init(json: bool) {
     let filter = EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new("info"));
     let builder = tracing_subscriber::fmt()
         .with_env_filter(filter)
-        .with_writer(std::io::stderr);
+        .with_writer(std::io::stderr)
+        // Colours only on a terminal: a file or a collector gets plain text.
+        .with_ansi(std::io::stderr().is_terminal());
     let installed = if json {
         builder
             .json()

@@ -144,6 +144,26 @@ fn too_large(limit: u64) -> Problem {
 /// draining a bounded tail lets them read the problem document.
 const LINGER_BYTES: u64 = 1 << 20;
 
+/// How long a refused upload's tail is still read before the answer.
+const LINGER_TIME: std::time::Duration = std::time::Duration::from_secs(2);
+
+/// Reads and discards up to [`LINGER_BYTES`] of a refused body, for at most
+/// [`LINGER_TIME`], so that the client is done writing (and reads the
+/// answer) when the body was small, without holding memory or waiting long
+/// for a large or stalled one.
+async fn drain(mut body: Body) {
+    let tail = async {
+        let mut seen = 0u64;
+        while let Some(Ok(frame)) = body.frame().await {
+            seen += frame.data_ref().map_or(0, |d| d.len() as u64);
+            if seen > LINGER_BYTES {
+                break;
+            }
+        }
+    };
+    let _ = tokio::time::timeout(LINGER_TIME, tail).await;
+}
+
 /// Reads the whole body, failing past `limit` bytes (after draining up to
 /// [`LINGER_BYTES`] more) or when the global budget is spent.
 async fn read_limited(
@@ -169,6 +189,8 @@ async fn read_limited(
             if seen <= limit {
                 if !permit.grow(data.len() as u64) {
                     metrics.refused(Refusal::UploadBytesInFlight);
+                    drop(std::mem::take(&mut buf));
+                    drain(body).await;
                     return Err(busy(&format!(
                         "the uploads in flight hold the server's budget of {} bytes; retry later",
                         permit.gate.max_bytes
@@ -208,6 +230,7 @@ pub async fn read_upload(
     }
     let Some(mut permit) = gate.enter() else {
         metrics.refused(Refusal::UploadsInFlight);
+        drain(body).await;
         return Err(busy(&format!(
             "{} uploads are in flight, the server's limit; retry later",
             gate.max_uploads

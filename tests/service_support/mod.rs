@@ -231,6 +231,15 @@ pub fn assert_problem(r: Response, status: u16, field: Option<&str>) -> Value {
 /// Starts the real binary (`serve` on port 0, one worker, `data_dir`, then
 /// `extra` flags) and returns it with its base URL.
 pub fn spawn_binary(data_dir: &Path, extra: &[&str]) -> (std::process::Child, String) {
+    let (child, base, _) = spawn_binary_logged(data_dir, extra);
+    (child, base)
+}
+
+/// The lines a spawned binary wrote to stderr so far.
+pub type Log = std::sync::Arc<std::sync::Mutex<Vec<String>>>;
+
+/// [`spawn_binary`], also keeping every line of the server's stderr.
+pub fn spawn_binary_logged(data_dir: &Path, extra: &[&str]) -> (std::process::Child, String, Log) {
     let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_isoremesh"))
         .args([
             "serve",
@@ -250,10 +259,13 @@ pub fn spawn_binary(data_dir: &Path, extra: &[&str]) -> (std::process::Child, St
         .unwrap();
     let stderr = child.stderr.take().unwrap();
     let (tx, rx) = std::sync::mpsc::channel();
+    let log = Log::default();
+    let lines = log.clone();
     std::thread::spawn(move || {
         let mut sent = false;
         for line in std::io::BufRead::lines(std::io::BufReader::new(stderr)) {
             let Ok(line) = line else { break };
+            lines.lock().unwrap().push(line.clone());
             if !sent {
                 if let Some(i) = line.find("listening on http://") {
                     let addr = line[i + "listening on ".len()..]
@@ -270,5 +282,5 @@ pub fn spawn_binary(data_dir: &Path, extra: &[&str]) -> (std::process::Child, St
     let base = rx
         .recv_timeout(Duration::from_secs(60))
         .expect("server did not start");
-    (child, base)
+    (child, base, log)
 }

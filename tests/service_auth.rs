@@ -343,10 +343,11 @@ fn global_upload_bounds_refuse_the_excess_with_503_while_uploads_stall() {
     c.max_body_bytes = 1 << 20;
     c.max_upload_bytes_in_flight = 1 << 20;
     let s = Server::start(c);
-    // One stalled upload holds 700 KB of the 1 MiB budget: a second upload
-    // of 400 KB passes it and is refused while the first holds on.
+    // One stalled upload of 900 KB holds that much of the 1 MiB budget
+    // (its declared length is reserved up front): a second upload of
+    // 400 KB would pass it and is refused while the first holds on.
     let first = stalled_upload(&s, 900_000, 700_000);
-    wait_in_flight(&s, 1, 700_000);
+    wait_in_flight(&s, 1, 900_000);
     let r = s.submit_raw("model/obj", vec![b'#'; 400_000], "");
     assert!(r.headers().contains_key("retry-after"));
     let p = assert_problem(r, 503, None);
@@ -356,7 +357,7 @@ fn global_upload_bounds_refuse_the_excess_with_503_while_uploads_stall() {
         "{p}"
     );
     // Two stalled uploads take both slots: the next is refused at once.
-    let second = stalled_upload(&s, 900_000, 10);
+    let second = stalled_upload(&s, 50_000, 10);
     wait_in_flight(&s, 2, 0);
     let r = s.submit("cube.obj", data("cube.obj"), None, vec![]);
     let p = assert_problem(r, 503, None);

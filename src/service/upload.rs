@@ -165,14 +165,32 @@ async fn drain(mut body: Body) {
 }
 
 /// Reads the whole body, failing past `limit` bytes (after draining up to
-/// [`LINGER_BYTES`] more) or when the global budget is spent.
+/// [`LINGER_BYTES`] more) or when the global budget is spent. The budget
+/// counts the buffer's capacity, not only its length: a body of declared
+/// length is read into one allocation of that size, reserved up front, and
+/// a chunked one grows by doubling, each growth counted before it happens.
 async fn read_limited(
     mut body: Body,
     limit: u64,
+    declared: Option<u64>,
     permit: &mut UploadPermit,
     metrics: &Metrics,
 ) -> Result<Bytes, Problem> {
+    let refuse = |permit: &UploadPermit| {
+        metrics.refused(Refusal::UploadBytesInFlight);
+        busy(&format!(
+            "the uploads in flight hold the server's budget of {} bytes; retry later",
+            permit.gate.max_bytes
+        ))
+    };
     let mut buf: Vec<u8> = Vec::new();
+    if let Some(n) = declared.filter(|&n| n <= limit) {
+        if !permit.grow(n) {
+            drain(body).await;
+            return Err(refuse(permit));
+        }
+        buf.reserve_exact(n as usize);
+    }
     let mut seen: u64 = 0;
     while let Some(frame) = body.frame().await {
         let frame = frame.map_err(|e| {
@@ -187,14 +205,15 @@ async fn read_limited(
                 break;
             }
             if seen <= limit {
-                if !permit.grow(data.len() as u64) {
-                    metrics.refused(Refusal::UploadBytesInFlight);
-                    drop(std::mem::take(&mut buf));
-                    drain(body).await;
-                    return Err(busy(&format!(
-                        "the uploads in flight hold the server's budget of {} bytes; retry later",
-                        permit.gate.max_bytes
-                    )));
+                let need = buf.len() + data.len();
+                if need > buf.capacity() {
+                    let grown = need.max(buf.capacity() * 2).min(limit as usize);
+                    if !permit.grow((grown - buf.capacity()) as u64) {
+                        drop(std::mem::take(&mut buf));
+                        drain(body).await;
+                        return Err(refuse(permit));
+                    }
+                    buf.reserve_exact(grown - buf.len());
                 }
                 buf.extend_from_slice(&data);
             } else {
@@ -236,7 +255,7 @@ pub async fn read_upload(
             gate.max_uploads
         )));
     };
-    let read = read_limited(body, cfg.max_body_bytes, &mut permit, metrics);
+    let read = read_limited(body, cfg.max_body_bytes, declared, &mut permit, metrics);
     let bytes = tokio::time::timeout(cfg.upload_timeout(), read)
         .await
         .map_err(|_| {
